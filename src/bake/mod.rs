@@ -1,0 +1,379 @@
+//! `bake`: a polygon tree becomes a 3D texture (the paper's section 2).
+//!
+//! The passes, in order: fit the grid over the model, classify triangles (foliage or wood, open
+//! or closed), scan along the three axes, turn what the rays saw into density and albedo per
+//! texture cell, take Sobel gradients, and build the mip chain.
+
+mod classify;
+mod filter;
+mod grid;
+mod scan;
+pub mod sobel;
+mod tomography;
+
+use rayon::prelude::*;
+use regex::Regex;
+
+use crate::import::Mesh;
+use crate::volume::{BakeParameters, DensityModel, Level, Texel, TexelInfo};
+pub use grid::Grid;
+use scan::{AxisScan, ScanModel};
+
+/// The material names that mark foliage unless `--foliage` says otherwise.
+pub const DEFAULT_FOLIAGE: &str = "leaf|leaves|foliage|needle|crown";
+
+#[derive(Clone, Debug)]
+pub struct BakeSettings {
+    /// Texture cells along the model's longest side.
+    pub resolution: usize,
+    /// Fine cells along the model's longest side; a multiple of `resolution`.
+    pub fine: usize,
+    pub density: DensityModel,
+    /// Extinction per unit occupancy (1/m) for the occupancy model; `None` fits it.
+    pub gamma: Option<f64>,
+    /// Case-insensitive pattern on material names marking foliage.
+    pub foliage: String,
+}
+
+impl Default for BakeSettings {
+    fn default() -> Self {
+        BakeSettings {
+            resolution: 32,
+            fine: 256,
+            density: DensityModel::Transmittance,
+            gamma: None,
+            foliage: DEFAULT_FOLIAGE.to_string(),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// A flag or setting is out of range.
+    #[error("{0}")]
+    Settings(String),
+    /// The model cannot be baked as it is.
+    #[error("{0}")]
+    Model(String),
+    #[error("the model is flat: it has no extent along {axis} (a 3D texture needs all three)")]
+    Flat { axis: char },
+}
+
+impl BakeSettings {
+    /// Checks the settings on their own, before any model is read.
+    pub fn validate(&self) -> Result<(), BakeError> {
+        let (res, fine) = (self.resolution, self.fine);
+        if !(1..=MAX_RESOLUTION).contains(&res) {
+            return Err(BakeError::Settings(format!(
+                "--resolution {res} must be between 1 and {MAX_RESOLUTION}"
+            )));
+        }
+        if fine < res || fine % res != 0 || fine > MAX_FINE {
+            return Err(BakeError::Settings(format!(
+                "--fine {fine} must be a multiple of --resolution {res} and at most {MAX_FINE}"
+            )));
+        }
+        if let Some(g) = self.gamma
+            && !(g.is_finite() && g > 0.0)
+        {
+            return Err(BakeError::Settings(format!(
+                "--gamma {g} must be a positive number of 1/m"
+            )));
+        }
+        self.foliage_regex().map(|_| ())
+    }
+
+    fn foliage_regex(&self) -> Result<Regex, BakeError> {
+        Regex::new(&format!("(?i){}", self.foliage)).map_err(|e| {
+            // The regex crate explains over several lines; keep its last, the diagnosis.
+            let why = e
+                .to_string()
+                .lines()
+                .last()
+                .unwrap_or_default()
+                .trim_start_matches("error: ")
+                .to_string();
+            BakeError::Settings(format!(
+                "--foliage {:?} is not a valid regular expression: {why}",
+                self.foliage
+            ))
+        })
+    }
+}
+
+/// Largest texture and fine resolutions accepted: 256^3 cells is 700 MiB of voxels already.
+const MAX_RESOLUTION: usize = 256;
+const MAX_FINE: usize = 4096;
+
+/// Bakes `mesh` into a texture. Sources and hashes are left empty for the caller to fill in.
+pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
+    settings.validate()?;
+    let grid = fit_grid(mesh, settings)?;
+    let foliage = settings.foliage_regex()?;
+    let is_foliage = classify::foliage_triangles(mesh, &foliage);
+    let is_closed = classify::closed_triangles(mesh);
+    let foliage_triangles = is_foliage.iter().filter(|&&f| f).count() as u64;
+    let model = ScanModel::new(mesh, grid, is_foliage, is_closed);
+
+    let scans = scan_all(&model, settings.density == DensityModel::Occupancy);
+    let rays = (grid.k * grid.k) as f64;
+    let mesh_coverage: [f64; 3] = std::array::from_fn(|a| {
+        let misses: u64 = scans[a].misses[0].iter().map(|&m| m as u64).sum();
+        1.0 - misses as f64 / (rays * scans[a].misses[0].len() as f64)
+    });
+
+    let (density, extinction_scale) = match settings.density {
+        DensityModel::Transmittance => (transmittance_density(&grid, &scans), 1.0),
+        DensityModel::Occupancy => {
+            let density = occupancy_density(&grid, &scans);
+            let gamma = settings
+                .gamma
+                .unwrap_or_else(|| fit_gamma(&grid, &density, mesh_coverage));
+            (density, gamma)
+        }
+    };
+    let mut level = Level::empty(grid.dims, grid.cell);
+    level.density = density;
+    level.albedo = albedo(&grid, &scans);
+    for part in 0..2 {
+        level.gradient[part] = sobel::gradient(&level.density[part], grid.dims, grid.cell);
+    }
+    let mut levels = vec![level];
+    while levels.last().is_some_and(|l| l.cell_count() > 1) {
+        let next = filter::reduce(levels.last().expect("non-empty"));
+        levels.push(next);
+    }
+
+    let (lo, hi) = mesh.bounds().expect("fit_grid checked for triangles");
+    Ok(Texel {
+        info: TexelInfo {
+            generator: concat!("texel-forest ", env!("CARGO_PKG_VERSION")).to_string(),
+            model_min: lo.as_dvec3().to_array(),
+            model_max: hi.as_dvec3().to_array(),
+            origin: grid.origin.to_array(),
+            density_model: settings.density,
+            extinction_scale,
+            triangles: mesh.triangles.len() as u64,
+            foliage_triangles,
+            mesh_coverage,
+            sources: Vec::new(),
+            inputs_sha256: [0; 32],
+            parameters: BakeParameters {
+                resolution: settings.resolution as u32,
+                fine: settings.fine as u32,
+                foliage_pattern: settings.foliage.clone(),
+                requested_gamma: settings.gamma,
+            },
+        },
+        levels,
+    })
+}
+
+fn scan_all(model: &ScanModel, occupancy: bool) -> Vec<AxisScan> {
+    (0..3)
+        .map(|axis| scan::scan_axis(model, axis, occupancy))
+        .collect()
+}
+
+/// The extinction (1/m, both parts) each axis's rays estimate, before they are combined into
+/// one isotropic value: what `formats/texel.md`'s measurement of anisotropy compares against.
+pub fn axis_extinctions(
+    mesh: &Mesh,
+    settings: &BakeSettings,
+) -> Result<(Grid, [Vec<f32>; 3]), BakeError> {
+    settings.validate()?;
+    let grid = fit_grid(mesh, settings)?;
+    let foliage = settings.foliage_regex()?;
+    let model = ScanModel::new(
+        mesh,
+        grid,
+        classify::foliage_triangles(mesh, &foliage),
+        classify::closed_triangles(mesh),
+    );
+    let scans = scan_all(&model, false);
+    let enclosed = ((2 * grid.k * grid.k) as f64).ln() / grid.cell;
+    let per_axis = [0, 1, 2].map(|a| {
+        cells(&grid)
+            .map(|c| scans[a].sigma[0][scan_index(&grid, a, c)].map_or(enclosed as f32, |s| s))
+            .collect()
+    });
+    Ok((grid, per_axis))
+}
+
+fn fit_grid(mesh: &Mesh, settings: &BakeSettings) -> Result<Grid, BakeError> {
+    let (res, fine) = (settings.resolution, settings.fine);
+    let Some((lo, hi)) = mesh.bounds() else {
+        return Err(BakeError::Model("the model has no triangles".into()));
+    };
+    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+    let extent = hi - lo;
+    if !extent.is_finite() {
+        return Err(BakeError::Model(
+            "the model's extent overflows (coordinates near the float limit)".into(),
+        ));
+    }
+    for (a, axis) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        if extent[a] <= 1e-6 * extent.max_element() {
+            return Err(BakeError::Flat { axis });
+        }
+    }
+    Ok(Grid::fit(lo, hi, res, fine / res))
+}
+
+/// Index into an [`AxisScan`]'s `[column][l]` arrays of texture cell `c`.
+fn scan_index(grid: &Grid, axis: usize, c: [usize; 3]) -> usize {
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    (c[u] + grid.dims[u] * c[v]) * grid.dims[axis] + c[axis]
+}
+
+fn cells(grid: &Grid) -> impl Iterator<Item = [usize; 3]> + '_ {
+    let [nx, ny, nz] = grid.dims;
+    (0..nz).flat_map(move |z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])))
+}
+
+/// Extinction per cell from the three axes' estimates, isotropic (`formats/texel.md` says why).
+/// A cell starts from the mean over the axes whose rays reached it (a cell no ray reached from
+/// any of the six sides is enclosed by opaque surfaces and gets the largest resolvable
+/// extinction); the field is then fitted so its column optical depths along x, y and z agree
+/// with the transmittance the rays measured. Wood is fitted to the wood-only measurements, so
+/// a leafless render is as accurate as a leafy one; foliage is what the whole tree adds to it.
+fn transmittance_density(grid: &Grid, scans: &[AxisScan]) -> [Vec<f32>; 2] {
+    let enclosed = ((2 * grid.k * grid.k) as f64).ln() / grid.cell;
+    let combine = |set: usize, c: [usize; 3]| -> f64 {
+        let (sum, n) = (0..3)
+            .filter_map(|a| scans[a].sigma[set][scan_index(grid, a, c)])
+            .fold((0.0, 0), |(s, n), x| (s + x as f64, n + 1));
+        if n == 0 { enclosed } else { sum / n as f64 }
+    };
+    let mut all: Vec<f32> = cells(grid).map(|c| combine(0, c) as f32).collect();
+    let mut wood: Vec<f32> = cells(grid).map(|c| combine(1, c) as f32).collect();
+    let rays = (grid.k * grid.k) as f64;
+    for (set, field) in [(0, &mut all), (1, &mut wood)] {
+        let targets = [0, 1, 2].map(|a| tomography::Targets {
+            depth: scans[a].misses[set]
+                .iter()
+                .map(|&m| -((m as f64 / rays).max(1.0 / (2.0 * rays))).ln())
+                .collect(),
+            opaque: scans[a].misses[set].iter().map(|&m| m == 0).collect(),
+        });
+        tomography::fit(grid, field, &targets);
+    }
+    let foliage = all
+        .iter()
+        .zip(&wood)
+        .map(|(a, w)| (a - w).max(0.0))
+        .collect();
+    [wood, foliage]
+}
+
+/// The paper's density: the fraction of each texture cell's fine cells that are occupied. A
+/// fine cell is occupied when a surface crosses it (on any axis's ray) or when its centre is
+/// inside a closed part by the winding count of at least two of the three rays through it (so a
+/// leak along one axis does not fill a streak).
+fn occupancy_density(grid: &Grid, scans: &[AxisScan]) -> [Vec<f32>; 2] {
+    use scan::{INSIDE_ALL, INSIDE_WOOD, SURFACE_ALL, SURFACE_WOOD};
+    let k = grid.k;
+    let fine = grid.fine_dims();
+    let fine_index = |a: usize, f: [usize; 3]| -> usize {
+        let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+        let column = f[u] / k + grid.dims[u] * (f[v] / k);
+        let ray = f[u] % k + k * (f[v] % k);
+        (column * k * k + ray) * fine[a] + f[a]
+    };
+    let per_cell: Vec<[f32; 2]> = cells(grid)
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|&c| {
+            let mut count = [0u32; 2];
+            for fz in c[2] * k..(c[2] + 1) * k {
+                for fy in c[1] * k..(c[1] + 1) * k {
+                    for fx in c[0] * k..(c[0] + 1) * k {
+                        let f = [fx, fy, fz];
+                        let bits = [0, 1, 2].map(|a| scans[a].fine[fine_index(a, f)]);
+                        let any = |m: u8| bits.iter().any(|b| b & m != 0);
+                        let votes = |m: u8| bits.iter().filter(|b| *b & m != 0).count();
+                        let all = any(SURFACE_ALL) || votes(INSIDE_ALL) >= 2;
+                        let wood = any(SURFACE_WOOD) || votes(INSIDE_WOOD) >= 2;
+                        count[0] += (all || wood) as u32;
+                        count[1] += wood as u32;
+                    }
+                }
+            }
+            let n = (k * k * k) as f32;
+            [count[1] as f32 / n, (count[0] - count[1]) as f32 / n]
+        })
+        .collect();
+    [
+        per_cell.iter().map(|c| c[0]).collect(),
+        per_cell.iter().map(|c| c[1]).collect(),
+    ]
+}
+
+/// gamma that makes the occupancy texture's silhouettes cover, on average over the three axis
+/// views, as much as the mesh does: the paper leaves gamma to the user; fitting it gives the
+/// occupancy model its best chance and a meaningful default.
+fn fit_gamma(grid: &Grid, density: &[Vec<f32>; 2], mesh_coverage: [f64; 3]) -> f64 {
+    let [nx, ny, nz] = grid.dims;
+    let occupancy = |x: usize, y: usize, z: usize| {
+        let i = x + nx * (y + ny * z);
+        (density[0][i] + density[1][i]) as f64
+    };
+    // Column sums of occupancy x cell along each axis.
+    let mut columns: [Vec<f64>; 3] = [vec![0.0; ny * nz], vec![0.0; nx * nz], vec![0.0; nx * ny]];
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                let o = occupancy(x, y, z) * grid.cell;
+                columns[0][y + ny * z] += o;
+                columns[1][x + nx * z] += o;
+                columns[2][x + nx * y] += o;
+            }
+        }
+    }
+    let target = mesh_coverage.iter().sum::<f64>() / 3.0;
+    let coverage = |gamma: f64| {
+        columns
+            .iter()
+            .map(|c| c.iter().map(|&d| 1.0 - (-gamma * d).exp()).sum::<f64>() / c.len() as f64)
+            .sum::<f64>()
+            / 3.0
+    };
+    // Coverage grows monotonically with gamma: bisect on a log scale.
+    let (mut lo, mut hi) = ((1e-3 / grid.cell).ln(), (1e4 / grid.cell).ln());
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if coverage(mid.exp()) < target {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    (0.5 * (lo + hi)).exp()
+}
+
+/// Mean colour of the surface crossings in each cell, per part, filled in where a part has none.
+fn albedo(grid: &Grid, scans: &[AxisScan]) -> [Vec<[f32; 3]>; 2] {
+    [0, 1].map(|part| {
+        let mut known = Vec::with_capacity(grid.cell_count());
+        let mut albedo: Vec<[f32; 3]> = cells(grid)
+            .map(|c| {
+                let (mut sum, mut n) = ([0.0f64; 3], 0u32);
+                for (a, scan) in scans.iter().enumerate() {
+                    let i = scan_index(grid, a, c);
+                    for ch in 0..3 {
+                        sum[ch] += scan.color_sum[part][i][ch] as f64;
+                    }
+                    n += scan.crossings[part][i];
+                }
+                known.push(n > 0);
+                if n > 0 {
+                    sum.map(|s| (s / n as f64).clamp(0.0, 1.0) as f32)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        filter::fill_unknown(&mut albedo, &mut known, grid.dims);
+        albedo
+    })
+}

@@ -1,0 +1,245 @@
+//! The container every texel-forest binary file shares (see `formats/container.md`):
+//!
+//! ```text
+//! offset  size  field
+//!      0     8  magic, one per format
+//!      8     2  major version, u16 LE (incompatible layout when it changes)
+//!     10     2  minor version, u16 LE (compatible additions)
+//!     12     4  header length H, u32 LE
+//!     16     8  payload length once decompressed R, u64 LE
+//!     24     8  payload length as stored P, u64 LE
+//!     32     H  header: bincode 2, little-endian fixed-width integers
+//!   32+H     P  payload: one zstd frame that decompresses to R bytes
+//! 32+H+P     4  CRC-32 (IEEE, as zlib's crc32) of every byte before it
+//! ```
+//!
+//! Reading checks, in order: length, magic, major version, the declared lengths against the
+//! file's, the checksum, then decodes the header with a size limit, and the payload with a
+//! bounded stream, so no field of a damaged or hostile file can make us allocate more than the
+//! limits below.
+
+use std::io::Read;
+
+/// Fixed part before the header.
+pub const PREAMBLE: usize = 32;
+/// The bincode configuration of every header: fixed, so the bytes never depend on defaults.
+pub const fn header_config() -> bincode::config::Configuration<
+    bincode::config::LittleEndian,
+    bincode::config::Fixint,
+    bincode::config::Limit<MAX_HEADER>,
+> {
+    bincode::config::standard()
+        .with_little_endian()
+        .with_fixed_int_encoding()
+        .with_limit::<MAX_HEADER>()
+}
+/// Largest header accepted (1 MiB).
+pub const MAX_HEADER: usize = 1 << 20;
+/// Largest decompressed payload accepted (2 GiB).
+pub const MAX_PAYLOAD: u64 = 2 << 30;
+/// zstd level: a fixed level keeps output bytes reproducible.
+const ZSTD_LEVEL: i32 = 9;
+
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum ContainerError {
+    #[error("not a {format} file (wrong magic bytes{hint})")]
+    Magic { format: &'static str, hint: String },
+    #[error(
+        "{format} format version {major}.{minor} is newer than this reader (1.x); update texel-forest or re-bake"
+    )]
+    Version {
+        format: &'static str,
+        major: u16,
+        minor: u16,
+    },
+    #[error("truncated: {0}")]
+    Truncated(String),
+    #[error("corrupt: {0}")]
+    Corrupt(String),
+}
+
+/// A parsed container: the format's version, its header bytes and its decompressed payload.
+#[derive(Debug)]
+pub struct Container {
+    pub minor: u16,
+    pub header: Vec<u8>,
+    pub payload: Vec<u8>,
+}
+
+/// Assembles a container around an encoded header and a raw payload.
+pub fn write(magic: &[u8; 8], major: u16, minor: u16, header: &[u8], payload: &[u8]) -> Vec<u8> {
+    let compressed =
+        zstd::bulk::compress(payload, ZSTD_LEVEL).expect("in-memory zstd compression cannot fail");
+    let mut out = Vec::with_capacity(PREAMBLE + header.len() + compressed.len() + 4);
+    out.extend_from_slice(magic);
+    out.extend_from_slice(&major.to_le_bytes());
+    out.extend_from_slice(&minor.to_le_bytes());
+    out.extend_from_slice(&(header.len() as u32).to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&(compressed.len() as u64).to_le_bytes());
+    out.extend_from_slice(header);
+    out.extend_from_slice(&compressed);
+    let crc = crc32fast::hash(&out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+fn u16_at(b: &[u8], at: usize) -> u16 {
+    u16::from_le_bytes([b[at], b[at + 1]])
+}
+fn u32_at(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
+}
+fn u64_at(b: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+}
+
+/// Checks and opens a container of format `format` (named in errors) with `magic` and major
+/// version `major`.
+pub fn read(
+    bytes: &[u8],
+    magic: &[u8; 8],
+    format: &'static str,
+    major: u16,
+) -> Result<Container, ContainerError> {
+    if bytes.len() < 8 || &bytes[..8] != magic {
+        let hint = if bytes.len() >= 8 && bytes[1..8] == magic[1..8] {
+            ", the first byte was altered".to_string()
+        } else if bytes.starts_with(b"glTF") || bytes.starts_with(b"{") {
+            "; it looks like glTF or JSON".to_string()
+        } else {
+            String::new()
+        };
+        if bytes.len() < 8 && magic.starts_with(bytes) {
+            return Err(ContainerError::Truncated(format!(
+                "{} bytes, not even a magic number",
+                bytes.len()
+            )));
+        }
+        return Err(ContainerError::Magic { format, hint });
+    }
+    if bytes.len() < PREAMBLE + 4 {
+        return Err(ContainerError::Truncated(format!(
+            "{} bytes, shorter than the fixed header",
+            bytes.len()
+        )));
+    }
+    let (file_major, minor) = (u16_at(bytes, 8), u16_at(bytes, 10));
+    if file_major != major {
+        return Err(ContainerError::Version {
+            format,
+            major: file_major,
+            minor,
+        });
+    }
+    let header_len = u32_at(bytes, 12) as u64;
+    let raw_len = u64_at(bytes, 16);
+    let stored_len = u64_at(bytes, 24);
+    if header_len > MAX_HEADER as u64 {
+        return Err(ContainerError::Corrupt(format!(
+            "header length {header_len} exceeds {MAX_HEADER}"
+        )));
+    }
+    if raw_len > MAX_PAYLOAD {
+        return Err(ContainerError::Corrupt(format!(
+            "payload length {raw_len} exceeds {MAX_PAYLOAD}"
+        )));
+    }
+    let expected = (PREAMBLE as u64 + 4)
+        .saturating_add(header_len)
+        .saturating_add(stored_len);
+    if (bytes.len() as u64) < expected {
+        return Err(ContainerError::Truncated(format!(
+            "{} bytes where the header promises {expected}",
+            bytes.len()
+        )));
+    }
+    if (bytes.len() as u64) > expected {
+        return Err(ContainerError::Corrupt(format!(
+            "{} bytes where the header promises {expected} (trailing data)",
+            bytes.len()
+        )));
+    }
+    let body = bytes.len() - 4;
+    let stored_crc = u32_at(bytes, body);
+    let crc = crc32fast::hash(&bytes[..body]);
+    if crc != stored_crc {
+        return Err(ContainerError::Corrupt(format!(
+            "checksum mismatch (stored {stored_crc:08x}, computed {crc:08x})"
+        )));
+    }
+    let header_end = PREAMBLE + header_len as usize;
+    let header = bytes[PREAMBLE..header_end].to_vec();
+    let mut payload = Vec::new();
+    let decoder = zstd::stream::read::Decoder::with_buffer(&bytes[header_end..body])
+        .map_err(|e| ContainerError::Corrupt(format!("payload: {e}")))?;
+    decoder
+        .take(raw_len + 1)
+        .read_to_end(&mut payload)
+        .map_err(|e| ContainerError::Corrupt(format!("payload does not decompress: {e}")))?;
+    if payload.len() as u64 != raw_len {
+        return Err(ContainerError::Corrupt(format!(
+            "payload decompresses to {} bytes, the header says {raw_len}",
+            payload.len()
+        )));
+    }
+    Ok(Container {
+        minor,
+        header,
+        payload,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MAGIC: &[u8; 8] = b"\x89TEST\r\n\x1a";
+
+    #[test]
+    fn round_trip_and_layout() {
+        let bytes = write(MAGIC, 1, 2, b"head", b"payload payload payload");
+        assert_eq!(&bytes[..8], MAGIC);
+        assert_eq!(u16_at(&bytes, 8), 1);
+        assert_eq!(u16_at(&bytes, 10), 2);
+        assert_eq!(u32_at(&bytes, 12), 4);
+        assert_eq!(u64_at(&bytes, 16), 23);
+        assert_eq!(&bytes[32..36], b"head");
+        let c = read(&bytes, MAGIC, "test", 1).unwrap();
+        assert_eq!(
+            (c.minor, c.header.as_slice(), c.payload.as_slice()),
+            (2, &b"head"[..], &b"payload payload payload"[..])
+        );
+    }
+
+    #[test]
+    fn every_truncation_and_every_flipped_byte_is_an_error() {
+        let bytes = write(MAGIC, 1, 0, b"head", &[7u8; 100]);
+        for n in 0..bytes.len() {
+            assert!(
+                read(&bytes[..n], MAGIC, "test", 1).is_err(),
+                "truncated to {n}"
+            );
+        }
+        for i in 0..bytes.len() {
+            let mut b = bytes.clone();
+            b[i] ^= 0x10;
+            assert!(read(&b, MAGIC, "test", 1).is_err(), "flipped byte {i}");
+        }
+    }
+
+    #[test]
+    fn newer_major_version_is_refused_with_advice() {
+        let bytes = write(MAGIC, 2, 0, b"", b"");
+        let e = read(&bytes, MAGIC, "test", 1).unwrap_err();
+        assert_eq!(
+            e,
+            ContainerError::Version {
+                format: "test",
+                major: 2,
+                minor: 0
+            }
+        );
+        assert!(e.to_string().contains("newer"));
+    }
+}

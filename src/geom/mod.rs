@@ -1,0 +1,23 @@
+//! Geometry shared by every stage: rays, boxes, triangles and the bounding volume hierarchy.
+
+mod aabb;
+mod bvh;
+mod triangle;
+
+pub use aabb::Aabb;
+pub use bvh::Bvh;
+pub use triangle::{TriangleHit, intersect_triangle};
+
+use glam::Vec3;
+
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+impl Ray {
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+}

@@ -1,0 +1,297 @@
+//! The glTF container: `.glb` chunks or `.gltf` JSON, the extension policy, and the buffers and
+//! images the JSON points at (embedded, data URIs or files beside the model), each read once.
+
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use gltf_json as json;
+use sha2::{Digest, Sha256};
+
+use super::{ImportError, Source};
+
+/// Extensions that change geometry or data layout and that we cannot decode.
+const COMPRESSION_EXTENSIONS: &[&str] = &[
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+];
+
+/// Required extensions we honour or may safely ignore for a volume bake: texture transforms and
+/// quantized attributes are decoded; material extensions only change shading we do not model.
+const TOLERATED_REQUIRED: &[&str] = &[
+    "KHR_texture_transform",
+    "KHR_mesh_quantization",
+    "KHR_materials_unlit",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+    "KHR_materials_iridescence",
+    "KHR_materials_anisotropy",
+    "KHR_materials_dispersion",
+    "KHR_materials_variants",
+    "KHR_lights_punctual",
+];
+
+/// Largest JSON chunk we parse; real tree assets are kilobytes.
+const MAX_JSON_BYTES: usize = 256 << 20;
+
+pub(super) struct Document {
+    pub path: PathBuf,
+    pub root: json::Root,
+    /// The `.glb` binary chunk, which `buffers[0]` refers to when it has no URI.
+    glb_bin: Option<Vec<u8>>,
+    buffers: Vec<Option<Vec<u8>>>,
+    pub sources: Vec<Source>,
+    pub warnings: Vec<String>,
+}
+
+fn sha256(bytes: &[u8]) -> [u8; 32] {
+    Sha256::digest(bytes).into()
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
+    std::fs::read(path).map_err(|source| ImportError::Io {
+        file: path.to_path_buf(),
+        source,
+    })
+}
+
+impl Document {
+    pub fn open(path: &Path) -> Result<Document, ImportError> {
+        let bytes = read_file(path)?;
+        let source = Source {
+            path: path.to_path_buf(),
+            sha256: sha256(&bytes),
+            bytes: bytes.len() as u64,
+        };
+        let (json_bytes, glb_bin) = if bytes.starts_with(b"glTF") {
+            split_glb(path, &bytes)?
+        } else {
+            (bytes.as_slice(), None)
+        };
+        if json_bytes.len() > MAX_JSON_BYTES {
+            return Err(ImportError::unsupported(
+                path,
+                "",
+                "JSON larger than 256 MiB",
+            ));
+        }
+        check_extensions(path, json_bytes)?;
+        let root: json::Root = serde_json::from_slice(json_bytes)
+            .map_err(|e| ImportError::invalid(path, "", format!("not valid glTF 2.0 JSON: {e}")))?;
+        if !root.asset.version.starts_with("2.") {
+            return Err(ImportError::unsupported(
+                path,
+                "asset.version",
+                format!("glTF version {} (only 2.x is read)", root.asset.version),
+            ));
+        }
+        let glb_bin = glb_bin.map(<[u8]>::to_vec);
+        let buffers = vec![None; root.buffers.len()];
+        let mut warnings = Vec::new();
+        if root
+            .extensions_used
+            .iter()
+            .any(|e| e == "EXT_mesh_gpu_instancing")
+        {
+            warnings.push(format!(
+                "{}: EXT_mesh_gpu_instancing is ignored (each node is baked once)",
+                path.display()
+            ));
+        }
+        Ok(Document {
+            path: path.to_path_buf(),
+            root,
+            glb_bin,
+            buffers,
+            sources: vec![source],
+            warnings,
+        })
+    }
+
+    pub fn warn(&mut self, message: String) {
+        if !self.warnings.contains(&message) {
+            self.warnings.push(message);
+        }
+    }
+
+    /// The bytes of `buffers[index]`, loaded on first use.
+    pub fn buffer(&mut self, index: usize, field: &str) -> Result<&[u8], ImportError> {
+        let Some(spec) = self.root.buffers.get(index) else {
+            return Err(ImportError::invalid(
+                &self.path,
+                field,
+                format!(
+                    "buffer {index} does not exist ({} buffers)",
+                    self.root.buffers.len()
+                ),
+            ));
+        };
+        if self.buffers[index].is_none() {
+            let (uri, declared) = (spec.uri.clone(), spec.byte_length.0);
+            let where_ = format!("buffers[{index}]");
+            let data = match &uri {
+                None => match (index, &self.glb_bin) {
+                    (0, Some(_)) => self.glb_bin.take().unwrap_or_default(),
+                    _ => {
+                        return Err(ImportError::invalid(
+                            &self.path,
+                            &where_,
+                            "has no uri and is not the GLB binary chunk",
+                        ));
+                    }
+                },
+                Some(uri) => self.resolve_uri(uri, &where_)?,
+            };
+            if (data.len() as u64) < declared {
+                return Err(ImportError::invalid(
+                    &self.path,
+                    format!("{where_}.byteLength"),
+                    format!(
+                        "declares {declared} bytes but only {} are present",
+                        data.len()
+                    ),
+                ));
+            }
+            self.buffers[index] = Some(data);
+        }
+        Ok(self.buffers[index].as_deref().unwrap_or_default())
+    }
+
+    /// Reads a data URI or a file relative to the glTF. Network and absolute URIs are refused:
+    /// a build step must not read outside what its inputs name.
+    pub fn resolve_uri(&mut self, uri: &str, field: &str) -> Result<Vec<u8>, ImportError> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            let Some((_, payload)) = rest.split_once(";base64,") else {
+                return Err(ImportError::unsupported(
+                    &self.path,
+                    field,
+                    "data URI is not base64-encoded",
+                ));
+            };
+            return base64::engine::general_purpose::STANDARD
+                .decode(payload.trim())
+                .map_err(|e| {
+                    ImportError::invalid(&self.path, field, format!("bad base64 data URI: {e}"))
+                });
+        }
+        if uri.contains("://") || uri.starts_with('/') || uri.starts_with('\\') || uri.contains(':')
+        {
+            return Err(ImportError::unsupported(
+                &self.path,
+                field,
+                format!(
+                    "URI {uri:?} is not a relative path (network and absolute URIs are refused)"
+                ),
+            ));
+        }
+        let decoded = percent_encoding::percent_decode_str(uri)
+            .decode_utf8()
+            .map_err(|_| ImportError::invalid(&self.path, field, "URI is not valid UTF-8"))?;
+        let file = self
+            .path
+            .parent()
+            .unwrap_or(Path::new(""))
+            .join(decoded.as_ref());
+        let bytes = read_file(&file).map_err(|e| match e {
+            ImportError::Io { source, .. } => ImportError::invalid(
+                &self.path,
+                field,
+                format!("cannot read {}: {source}", file.display()),
+            ),
+            other => other,
+        })?;
+        if !self.sources.iter().any(|s| s.path == file) {
+            self.sources.push(Source {
+                path: file,
+                sha256: sha256(&bytes),
+                bytes: bytes.len() as u64,
+            });
+        }
+        Ok(bytes)
+    }
+}
+
+/// Splits a binary glTF into its JSON chunk and optional BIN chunk.
+fn split_glb<'a>(
+    path: &Path,
+    bytes: &'a [u8],
+) -> Result<(&'a [u8], Option<&'a [u8]>), ImportError> {
+    let u32_at = |at: usize| -> Option<u32> {
+        bytes
+            .get(at..at + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let bad = |message: &str| ImportError::invalid(path, "GLB", message);
+    let version = u32_at(4).ok_or_else(|| bad("truncated header"))?;
+    if version != 2 {
+        return Err(ImportError::unsupported(
+            path,
+            "GLB",
+            format!("container version {version} (only 2 is read)"),
+        ));
+    }
+    let length = u32_at(8).ok_or_else(|| bad("truncated header"))? as usize;
+    if length > bytes.len() {
+        return Err(bad(&format!(
+            "header says {length} bytes but the file has {} (truncated?)",
+            bytes.len()
+        )));
+    }
+    let bytes = &bytes[..length];
+    let mut at = 12;
+    let mut json_chunk = None;
+    let mut bin_chunk = None;
+    while at + 8 <= bytes.len() {
+        let chunk_len = u32_at(at).ok_or_else(|| bad("truncated chunk header"))? as usize;
+        let kind = u32_at(at + 4).ok_or_else(|| bad("truncated chunk header"))?;
+        let data = bytes
+            .get(at + 8..at + 8 + chunk_len)
+            .ok_or_else(|| bad("chunk runs past the end of the file"))?;
+        match kind {
+            0x4E4F_534A if json_chunk.is_none() => json_chunk = Some(data),
+            0x004E_4942 if bin_chunk.is_none() => bin_chunk = Some(data),
+            _ => {}
+        }
+        at += 8 + chunk_len;
+    }
+    let json_chunk = json_chunk.ok_or_else(|| bad("no JSON chunk"))?;
+    Ok((json_chunk, bin_chunk))
+}
+
+/// Refuses compressed geometry and other required extensions we cannot honour, before the JSON
+/// is parsed into typed structures (whose errors would be far less clear).
+fn check_extensions(path: &Path, json_bytes: &[u8]) -> Result<(), ImportError> {
+    #[derive(serde::Deserialize, Default)]
+    #[serde(default, rename_all = "camelCase")]
+    struct Extensions {
+        extensions_used: Vec<String>,
+        extensions_required: Vec<String>,
+    }
+    let ext: Extensions = serde_json::from_slice(json_bytes)
+        .map_err(|e| ImportError::invalid(path, "", format!("not valid glTF JSON: {e}")))?;
+    for name in &ext.extensions_required {
+        if COMPRESSION_EXTENSIONS.contains(&name.as_str()) {
+            return Err(ImportError::unsupported(
+                path,
+                "extensionsRequired",
+                format!(
+                    "mesh compression {name} is not supported; export the model without \
+                     compression (e.g. `gltf-transform copy` or Blender without Draco)"
+                ),
+            ));
+        }
+        if !TOLERATED_REQUIRED.contains(&name.as_str()) {
+            return Err(ImportError::unsupported(
+                path,
+                "extensionsRequired",
+                format!("required extension {name} is not supported"),
+            ));
+        }
+    }
+    Ok(())
+}

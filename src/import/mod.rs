@@ -1,0 +1,211 @@
+//! glTF 2.0 import: a `.gltf` or `.glb` file becomes a plain triangle [`Mesh`] in the model's
+//! own space (metres, +Y up, origin at the tree's base), with materials and decoded textures.
+//!
+//! This is the only module that sees glTF types. It reads the JSON with `gltf-json`'s serde
+//! types and does its own validation, so that every problem is reported with the file and the
+//! JSON path of the offending field, and so that the quirks real assets carry (a scene listing a
+//! node that is also another node's child, unused extensions, external buffers) are tolerated
+//! while unsafe input (cycles, out-of-range reads, network URIs) is refused.
+
+mod accessor;
+mod document;
+mod image;
+mod scene;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use glam::{Mat3, Vec2, Vec3, Vec4};
+
+pub use self::image::{Texture, WrapMode};
+
+/// A triangle soup with per-vertex attributes, ready for scan conversion.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Vertex positions in the model's space, metres.
+    pub positions: Vec<Vec3>,
+    /// Texture coordinates of the set the vertex's material samples (zero when it has none).
+    pub uvs: Vec<Vec2>,
+    /// `COLOR_0`, linear RGBA (white where the primitive has none).
+    pub colors: Vec<Vec4>,
+    /// Triangles, counter-clockwise seen from the front in the model's space.
+    pub triangles: Vec<Triangle>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Triangle {
+    pub vertices: [u32; 3],
+    pub material: u32,
+}
+
+/// The part of a glTF material that a volume needs: its colour and its coverage.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// `baseColorFactor`, linear RGBA.
+    pub base_color: Vec4,
+    /// Index into [`Mesh::textures`] of the `baseColorTexture`.
+    pub base_color_texture: Option<u32>,
+    /// `KHR_texture_transform` of the base colour texture, as a 2D affine matrix.
+    pub uv_transform: Option<Mat3>,
+    pub alpha_mode: AlphaMode,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    Opaque,
+    /// Covered where alpha >= cutoff (glTF `MASK`).
+    Mask {
+        cutoff: f32,
+    },
+    /// Alpha is fractional coverage (glTF `BLEND`).
+    Blend,
+}
+
+impl Material {
+    pub fn is_alpha_tested(&self) -> bool {
+        !matches!(self.alpha_mode, AlphaMode::Opaque)
+    }
+}
+
+impl Default for Material {
+    /// The glTF default material: white, opaque.
+    fn default() -> Self {
+        Material {
+            name: String::new(),
+            base_color: Vec4::ONE,
+            base_color_texture: None,
+            uv_transform: None,
+            alpha_mode: AlphaMode::Opaque,
+        }
+    }
+}
+
+impl Mesh {
+    /// The axis-aligned bounds of the vertices that triangles use.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for tri in &self.triangles {
+            for &v in &tri.vertices {
+                let p = self.positions[v as usize];
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        (!self.triangles.is_empty()).then_some((lo, hi))
+    }
+
+    /// Linear RGBA base colour of `triangle` at barycentric weights `w` (material factor x
+    /// texture x `COLOR_0`).
+    pub fn base_color(&self, triangle: &Triangle, w: [f32; 3]) -> Vec4 {
+        let [a, b, c] = triangle.vertices.map(|v| v as usize);
+        let material = &self.materials[triangle.material as usize];
+        let mut color = material.base_color
+            * (self.colors[a] * w[0] + self.colors[b] * w[1] + self.colors[c] * w[2]);
+        if let Some(texture) = material.base_color_texture {
+            let mut uv = self.uvs[a] * w[0] + self.uvs[b] * w[1] + self.uvs[c] * w[2];
+            if let Some(m) = material.uv_transform {
+                uv = m.transform_point2(uv);
+            }
+            color *= self.textures[texture as usize].sample(uv);
+        }
+        color
+    }
+}
+
+/// A model as imported, with the files it was read from.
+#[derive(Clone, Debug)]
+pub struct Model {
+    pub mesh: Mesh,
+    /// Every file read: the glTF first, then external buffers and images, in the order read.
+    pub sources: Vec<Source>,
+    /// Things skipped or ignored that a user may want to know about.
+    pub warnings: Vec<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Source {
+    pub path: PathBuf,
+    pub sha256: [u8; 32],
+    pub bytes: u64,
+}
+
+/// Why a glTF file could not be imported. Every variant names the file; `field` is the JSON path
+/// of what was wrong where there is one.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        file: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{file}: {}{message}", field_prefix(field))]
+    Invalid {
+        file: PathBuf,
+        field: String,
+        message: String,
+    },
+    #[error("{file}: {}{message}", field_prefix(field))]
+    Unsupported {
+        file: PathBuf,
+        field: String,
+        message: String,
+    },
+}
+
+fn field_prefix(field: &str) -> String {
+    if field.is_empty() {
+        String::new()
+    } else {
+        format!("{field}: ")
+    }
+}
+
+impl ImportError {
+    pub(crate) fn invalid(
+        file: &Path,
+        field: impl fmt::Display,
+        message: impl fmt::Display,
+    ) -> Self {
+        ImportError::Invalid {
+            file: file.to_path_buf(),
+            field: field.to_string(),
+            message: message.to_string(),
+        }
+    }
+
+    pub(crate) fn unsupported(
+        file: &Path,
+        field: impl fmt::Display,
+        message: impl fmt::Display,
+    ) -> Self {
+        ImportError::Unsupported {
+            file: file.to_path_buf(),
+            field: field.to_string(),
+            message: message.to_string(),
+        }
+    }
+}
+
+/// Reads a `.gltf` (with its external or embedded buffers and images) or a `.glb` file and
+/// flattens the default scene into one mesh in the model's space.
+pub fn load(path: &Path) -> Result<Model, ImportError> {
+    let mut doc = document::Document::open(path)?;
+    let mesh = scene::flatten(&mut doc)?;
+    if mesh.triangles.is_empty() {
+        return Err(ImportError::invalid(
+            path,
+            "",
+            "the default scene has no triangles (nothing to bake)",
+        ));
+    }
+    Ok(Model {
+        mesh,
+        sources: doc.sources,
+        warnings: doc.warnings,
+    })
+}

@@ -1,0 +1,449 @@
+//! Flattens the default scene: walks the node tree from the scene's roots, applies each node's
+//! transform (matrix or TRS) to its mesh's triangle primitives, and collects materials.
+
+use std::collections::HashMap;
+
+use glam::{DMat4, DQuat, DVec3, Mat3, Vec2, Vec3, Vec4};
+use gltf_json as json;
+use json::mesh::{Mode, Semantic};
+use json::validation::Checked;
+
+use super::accessor;
+use super::document::Document;
+use super::image::load_texture;
+use super::{AlphaMode, ImportError, Material, Mesh, Triangle};
+
+/// Deeper hierarchies than this are refused as malformed (real assets nest a handful of levels).
+const MAX_DEPTH: usize = 256;
+
+struct Builder {
+    mesh: Mesh,
+    /// glTF material index (None = default material) -> index in `mesh.materials`.
+    materials: HashMap<Option<usize>, u32>,
+    /// glTF texture index -> index in `mesh.textures`.
+    textures: HashMap<usize, u32>,
+}
+
+pub(super) fn flatten(doc: &mut Document) -> Result<Mesh, ImportError> {
+    let roots = scene_roots(doc)?;
+    let mut builder = Builder {
+        mesh: Mesh::default(),
+        materials: HashMap::new(),
+        textures: HashMap::new(),
+    };
+    let mut on_path = vec![false; doc.root.nodes.len()];
+    for (i, node) in roots.into_iter().enumerate() {
+        visit(
+            doc,
+            &mut builder,
+            node,
+            DMat4::IDENTITY,
+            &mut on_path,
+            0,
+            &format!("scene.nodes[{i}]"),
+        )?;
+    }
+    Ok(builder.mesh)
+}
+
+/// The root nodes of the default scene: `scene`, else the first scene, else (a file with no
+/// scenes) every node that is nobody's child.
+fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
+    let root = &doc.root;
+    if root.scenes.is_empty() {
+        let mut is_child = vec![false; root.nodes.len()];
+        for node in &root.nodes {
+            for child in node.children.iter().flatten() {
+                if let Some(flag) = is_child.get_mut(child.value()) {
+                    *flag = true;
+                }
+            }
+        }
+        return Ok((0..root.nodes.len()).filter(|&i| !is_child[i]).collect());
+    }
+    let scene = root.scene.map_or(0, |s| s.value());
+    let Some(scene) = root.scenes.get(scene) else {
+        return Err(ImportError::invalid(
+            &doc.path,
+            "scene",
+            format!("scene {scene} does not exist"),
+        ));
+    };
+    Ok(scene.nodes.iter().map(|n| n.value()).collect())
+}
+
+fn local_transform(node: &json::Node) -> DMat4 {
+    if let Some(m) = node.matrix {
+        return DMat4::from_cols_array(&m.map(f64::from));
+    }
+    let t = node
+        .translation
+        .map_or(DVec3::ZERO, |t| DVec3::from(t.map(f64::from)));
+    let s = node
+        .scale
+        .map_or(DVec3::ONE, |s| DVec3::from(s.map(f64::from)));
+    let r = node.rotation.map_or(DQuat::IDENTITY, |r| {
+        let q = DQuat::from_array(r.0.map(f64::from));
+        if q.length_squared() > 0.0 && q.is_finite() {
+            q.normalize()
+        } else {
+            DQuat::IDENTITY
+        }
+    });
+    DMat4::from_scale_rotation_translation(s, r, t)
+}
+
+fn visit(
+    doc: &mut Document,
+    b: &mut Builder,
+    index: usize,
+    parent: DMat4,
+    on_path: &mut Vec<bool>,
+    depth: usize,
+    field: &str,
+) -> Result<(), ImportError> {
+    let path = doc.path.clone();
+    if index >= doc.root.nodes.len() {
+        return Err(ImportError::invalid(
+            &path,
+            field,
+            format!("node {index} does not exist"),
+        ));
+    }
+    if on_path[index] || depth > MAX_DEPTH {
+        return Err(ImportError::invalid(
+            &path,
+            format!("nodes[{index}].children"),
+            "the node hierarchy is cyclic or deeper than 256 levels",
+        ));
+    }
+    let node = &doc.root.nodes[index];
+    let world = parent * local_transform(node);
+    if !world.is_finite() {
+        return Err(ImportError::invalid(
+            &path,
+            format!("nodes[{index}]"),
+            "transform is not finite",
+        ));
+    }
+    let mesh = node.mesh.map(|m| m.value());
+    let children: Vec<usize> = node.children.iter().flatten().map(|c| c.value()).collect();
+    if node.skin.is_some() {
+        doc.warn(format!(
+            "{}: nodes[{index}] is skinned; baked in its bind pose",
+            path.display()
+        ));
+    }
+    if let Some(mesh) = mesh {
+        let Some(primitives) = doc.root.meshes.get(mesh).map(|m| m.primitives.len()) else {
+            return Err(ImportError::invalid(
+                &path,
+                format!("nodes[{index}].mesh"),
+                format!("mesh {mesh} does not exist"),
+            ));
+        };
+        for p in 0..primitives {
+            add_primitive(doc, b, mesh, p, world)?;
+        }
+    }
+    on_path[index] = true;
+    for (i, child) in children.into_iter().enumerate() {
+        visit(
+            doc,
+            b,
+            child,
+            world,
+            on_path,
+            depth + 1,
+            &format!("nodes[{index}].children[{i}]"),
+        )?;
+    }
+    on_path[index] = false;
+    Ok(())
+}
+
+fn add_primitive(
+    doc: &mut Document,
+    b: &mut Builder,
+    mesh: usize,
+    prim: usize,
+    world: DMat4,
+) -> Result<(), ImportError> {
+    let path = doc.path.clone();
+    let field = format!("meshes[{mesh}].primitives[{prim}]");
+    let primitive = doc.root.meshes[mesh].primitives[prim].clone();
+    let mode = match primitive.mode {
+        Checked::Valid(mode) => mode,
+        Checked::Invalid => {
+            return Err(ImportError::invalid(
+                &path,
+                format!("{field}.mode"),
+                "invalid",
+            ));
+        }
+    };
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
+        doc.warn(format!(
+            "{}: {field} skipped: {mode:?} are not surfaces",
+            path.display()
+        ));
+        return Ok(());
+    }
+    let attribute = |s: Semantic| {
+        primitive
+            .attributes
+            .get(&Checked::Valid(s))
+            .map(|a| a.value())
+    };
+    let Some(position_accessor) = attribute(Semantic::Positions) else {
+        doc.warn(format!(
+            "{}: {field} skipped: it has no POSITION",
+            path.display()
+        ));
+        return Ok(());
+    };
+    let pfield = format!("{field}.attributes.POSITION");
+    let positions = accessor::read(doc, position_accessor, &pfield)?;
+    if positions.components != 3 {
+        return Err(ImportError::invalid(&path, &pfield, "is not a VEC3"));
+    }
+    if let Some(bad) = positions.data.iter().position(|v| !v.is_finite()) {
+        return Err(ImportError::invalid(
+            &path,
+            &pfield,
+            format!(
+                "accessor {position_accessor} element {} is not finite ({})",
+                bad / 3,
+                positions.data[bad]
+            ),
+        ));
+    }
+    let n = positions.count();
+
+    let material = material_index(doc, b, primitive.material.map(|m| m.value()), &field)?;
+    let tex_coord = texture_coordinate_set(doc, primitive.material.map(|m| m.value()));
+    let uvs = match tex_coord.and_then(|set| attribute(Semantic::TexCoords(set)).map(|a| (set, a)))
+    {
+        Some((set, a)) => {
+            let f = format!("{field}.attributes.TEXCOORD_{set}");
+            let v = accessor::read(doc, a, &f)?;
+            if v.components != 2 || v.count() != n {
+                return Err(ImportError::invalid(
+                    &path,
+                    &f,
+                    format!("must be {n} VEC2 elements"),
+                ));
+            }
+            (0..n)
+                .map(|i| Vec2::new(v.element(i)[0] as f32, v.element(i)[1] as f32))
+                .collect()
+        }
+        None => {
+            if let Some(set) = tex_coord {
+                doc.warn(format!(
+                    "{}: {field} has a textured material but no TEXCOORD_{set}; texture sampled at (0,0)",
+                    path.display()
+                ));
+            }
+            vec![Vec2::ZERO; n]
+        }
+    };
+    let colors = match attribute(Semantic::Colors(0)) {
+        Some(a) => {
+            let f = format!("{field}.attributes.COLOR_0");
+            let v = accessor::read(doc, a, &f)?;
+            if !(v.components == 3 || v.components == 4) || v.count() != n {
+                return Err(ImportError::invalid(
+                    &path,
+                    &f,
+                    format!("must be {n} VEC3 or VEC4 elements"),
+                ));
+            }
+            (0..n)
+                .map(|i| {
+                    let e = v.element(i);
+                    let alpha = if v.components == 4 { e[3] } else { 1.0 };
+                    Vec4::new(e[0] as f32, e[1] as f32, e[2] as f32, alpha as f32)
+                })
+                .collect()
+        }
+        None => vec![Vec4::ONE; n],
+    };
+
+    let indices = match primitive.indices {
+        Some(i) => {
+            let f = format!("{field}.indices");
+            let indices = accessor::read_indices(doc, i.value(), &f)?;
+            if let Some(&bad) = indices.iter().find(|&&v| v as usize >= n) {
+                return Err(ImportError::invalid(
+                    &path,
+                    &f,
+                    format!("index {bad} is out of range for {n} vertices"),
+                ));
+            }
+            indices
+        }
+        None => (0..n as u32).collect(),
+    };
+    let corners = triangulate(mode, &indices);
+
+    let base = b.mesh.positions.len() as u32;
+    let mirrored = world.determinant() < 0.0;
+    for p in positions.data.chunks_exact(3) {
+        let q = world
+            .transform_point3(DVec3::new(p[0], p[1], p[2]))
+            .as_vec3();
+        if !q.is_finite() {
+            return Err(ImportError::invalid(
+                &path,
+                &pfield,
+                "a transformed position overflows",
+            ));
+        }
+        b.mesh.positions.push(q);
+    }
+    b.mesh.uvs.extend(uvs);
+    b.mesh.colors.extend(colors);
+    for [i, j, k] in corners {
+        if i == j || j == k || i == k {
+            continue;
+        }
+        // A mirroring transform turns counter-clockwise into clockwise; swap to keep fronts.
+        let vertices = if mirrored {
+            [base + i, base + k, base + j]
+        } else {
+            [base + i, base + j, base + k]
+        };
+        b.mesh.triangles.push(Triangle { vertices, material });
+    }
+    Ok(())
+}
+
+/// Triangle corner indices for a triangle list, strip or fan (glTF 2.0 section 3.7.2.1).
+fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i], idx[i + 1], idx[i + 2]]
+                } else {
+                    [idx[i], idx[i + 2], idx[i + 1]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1))
+            .map(|i| [idx[i], idx[i + 1], idx[0]])
+            .collect(),
+        _ => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    }
+}
+
+fn texture_coordinate_set(doc: &Document, material: Option<usize>) -> Option<u32> {
+    let info = doc
+        .root
+        .materials
+        .get(material?)?
+        .pbr_metallic_roughness
+        .base_color_texture
+        .as_ref()?;
+    let over = info
+        .extensions
+        .as_ref()
+        .and_then(|e| e.texture_transform.as_ref())
+        .and_then(|t| t.tex_coord);
+    Some(over.unwrap_or(info.tex_coord))
+}
+
+fn material_index(
+    doc: &mut Document,
+    b: &mut Builder,
+    index: Option<usize>,
+    field: &str,
+) -> Result<u32, ImportError> {
+    if let Some(&m) = b.materials.get(&index) {
+        return Ok(m);
+    }
+    let material = match index {
+        None => Material::default(),
+        Some(i) => convert_material(doc, b, i, field)?,
+    };
+    let m = b.mesh.materials.len() as u32;
+    b.mesh.materials.push(material);
+    b.materials.insert(index, m);
+    Ok(m)
+}
+
+fn convert_material(
+    doc: &mut Document,
+    b: &mut Builder,
+    i: usize,
+    field: &str,
+) -> Result<Material, ImportError> {
+    let path = doc.path.clone();
+    let Some(m) = doc.root.materials.get(i).cloned() else {
+        return Err(ImportError::invalid(
+            &path,
+            format!("{field}.material"),
+            format!("material {i} does not exist"),
+        ));
+    };
+    let here = format!("materials[{i}]");
+    let pbr = &m.pbr_metallic_roughness;
+    let base_color = Vec4::from_array(pbr.base_color_factor.0);
+    if !base_color.is_finite() {
+        return Err(ImportError::invalid(
+            &path,
+            format!("{here}.pbrMetallicRoughness.baseColorFactor"),
+            "not finite",
+        ));
+    }
+    let alpha_mode = match m.alpha_mode {
+        Checked::Valid(json::material::AlphaMode::Mask) => AlphaMode::Mask {
+            cutoff: m.alpha_cutoff.map_or(0.5, |c| c.0),
+        },
+        Checked::Valid(json::material::AlphaMode::Blend) => AlphaMode::Blend,
+        _ => AlphaMode::Opaque,
+    };
+    let (base_color_texture, uv_transform) = match &pbr.base_color_texture {
+        None => (None, None),
+        Some(info) => {
+            let t = info.index.value();
+            let index = match b.textures.get(&t) {
+                Some(&k) => k,
+                None => {
+                    let texture = load_texture(
+                        doc,
+                        t,
+                        &format!("{here}.pbrMetallicRoughness.baseColorTexture"),
+                    )?;
+                    let k = b.mesh.textures.len() as u32;
+                    b.mesh.textures.push(texture);
+                    b.textures.insert(t, k);
+                    k
+                }
+            };
+            let transform = info
+                .extensions
+                .as_ref()
+                .and_then(|e| e.texture_transform.as_ref())
+                .map(|t| {
+                    // KHR_texture_transform: uv' = T * R * S * uv, rotation counter-clockwise in UV.
+                    let (s, c) = t.rotation.0.sin_cos();
+                    Mat3::from_translation(Vec2::from(t.offset.0))
+                        * Mat3::from_cols(Vec3::new(c, -s, 0.0), Vec3::new(s, c, 0.0), Vec3::Z)
+                        * Mat3::from_scale(Vec2::from(t.scale.0))
+                });
+            (Some(index), transform)
+        }
+    };
+    Ok(Material {
+        name: m.name.clone().unwrap_or_default(),
+        base_color,
+        base_color_texture,
+        uv_transform,
+        alpha_mode,
+    })
+}

@@ -1,0 +1,4 @@
+//! Human-readable views of our files: summaries as text or JSON, and pictures.
+
+pub mod pictures;
+pub mod texel;

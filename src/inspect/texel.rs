@@ -1,0 +1,279 @@
+//! What `texel inspect FILE.texel` reports.
+
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use crate::bake::sobel;
+use crate::formats::hex;
+use crate::volume::{BakeParameters, DensityModel, SourceFile, Texel};
+
+#[derive(Serialize, Debug)]
+pub struct Summary {
+    pub format: &'static str,
+    pub generator: String,
+    pub file_bytes: u64,
+    /// Voxel payload before compression.
+    pub raw_bytes: u64,
+    pub density_model: DensityModel,
+    /// gamma: extinction (1/m) per unit density.
+    pub extinction_scale: f64,
+    pub model_min: [f64; 3],
+    pub model_max: [f64; 3],
+    pub origin: [f64; 3],
+    pub levels: Vec<LevelSummary>,
+    /// Level 0, per channel.
+    pub channels: Vec<ChannelStats>,
+    /// Fraction of level-0 cells with any extinction.
+    pub fill_ratio: f64,
+    /// Of the level-0 cells with extinction, the fraction whose density gradient vanishes
+    /// (uniform interiors) so that they have no normal.
+    pub filled_without_normal: f64,
+    pub triangles: u64,
+    pub foliage_triangles: u64,
+    /// Silhouette coverage along x, y, z: of the mesh (measured at bake) and as the texture's
+    /// optical depth predicts it, 1 - mean exp(-tau) over level-0 columns.
+    pub coverage_mesh: [f64; 3],
+    pub coverage_texture: [f64; 3],
+    pub sources: Vec<SourceFile>,
+    #[serde(serialize_with = "crate::formats::hex32")]
+    pub inputs_sha256: [u8; 32],
+    pub parameters: BakeParameters,
+}
+
+#[derive(Serialize, Debug)]
+pub struct LevelSummary {
+    pub dims: [usize; 3],
+    pub cell: f64,
+}
+
+#[derive(Serialize, Debug)]
+pub struct ChannelStats {
+    pub name: String,
+    pub unit: String,
+    pub min: f64,
+    pub max: f64,
+    pub mean: f64,
+}
+
+fn stats(name: &str, unit: &str, values: impl Iterator<Item = f64>) -> ChannelStats {
+    let (mut min, mut max, mut sum, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
+    for v in values {
+        min = min.min(v);
+        max = max.max(v);
+        sum += v;
+        n += 1;
+    }
+    if n == 0 {
+        (min, max) = (0.0, 0.0);
+    }
+    ChannelStats {
+        name: name.into(),
+        unit: unit.into(),
+        min,
+        max,
+        mean: sum / n.max(1) as f64,
+    }
+}
+
+/// Optical depth of every level-0 column along `axis`, in model units.
+pub fn column_depths(texel: &Texel, level: usize, axis: usize) -> Vec<f64> {
+    let l = &texel.levels[level];
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let mut depth = vec![0.0; l.dims[u] * l.dims[v]];
+    let s = texel.info.extinction_scale * l.cell;
+    for z in 0..l.dims[2] {
+        for y in 0..l.dims[1] {
+            for x in 0..l.dims[0] {
+                let c = [x, y, z];
+                let i = l.index(x, y, z);
+                depth[c[u] + l.dims[u] * c[v]] += s * (l.density[0][i] + l.density[1][i]) as f64;
+            }
+        }
+    }
+    depth
+}
+
+pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
+    let info = &texel.info;
+    let l0 = &texel.levels[0];
+    let (density_unit, gradient_unit) = match info.density_model {
+        DensityModel::Occupancy => ("1", "1/m"),
+        DensityModel::Transmittance => ("1/m", "1/m^2"),
+    };
+    let mut channels = Vec::new();
+    for part in 0..2 {
+        let name = ["wood", "foliage"][part];
+        channels.push(stats(
+            &format!("density_{name}"),
+            density_unit,
+            l0.density[part].iter().map(|&d| d as f64),
+        ));
+    }
+    let scale = info.extinction_scale;
+    channels.push(stats(
+        "extinction (total)",
+        "1/m",
+        (0..l0.cell_count()).map(|i| scale * (l0.density[0][i] + l0.density[1][i]) as f64),
+    ));
+    for part in 0..2 {
+        let name = ["wood", "foliage"][part];
+        channels.push(stats(
+            &format!("|gradient_{name}|"),
+            gradient_unit,
+            l0.gradient[part]
+                .iter()
+                .map(|g| (g[0] as f64).hypot(g[1] as f64).hypot(g[2] as f64)),
+        ));
+    }
+    for part in 0..2 {
+        let name = ["wood", "foliage"][part];
+        for (c, ch) in ["r", "g", "b"].iter().enumerate() {
+            // Only where the part is present: elsewhere albedo is a fill-in.
+            let present = (0..l0.cell_count()).filter(|&i| l0.density[part][i] > 0.0);
+            channels.push(stats(
+                &format!("albedo_{name}.{ch}"),
+                "linear",
+                present.map(|i| l0.albedo[part][i][c] as f64),
+            ));
+        }
+    }
+    let n = l0.cell_count() as f64;
+    let filled = (0..l0.cell_count())
+        .filter(|&i| l0.density[0][i] + l0.density[1][i] > 0.0)
+        .count();
+    let without_normal = (0..l0.cell_count())
+        .filter(|&i| l0.density[0][i] + l0.density[1][i] > 0.0)
+        .filter(|&i| {
+            let g = [0, 1, 2].map(|c| l0.gradient[0][i][c] + l0.gradient[1][i][c]);
+            sobel::normal(g).is_none()
+        })
+        .count();
+    let coverage_texture = [0, 1, 2].map(|a| {
+        let d = column_depths(texel, 0, a);
+        d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len() as f64
+    });
+    let per_cell_bytes = 2 * 4 + 2 * 12 + 2 * 6;
+    Summary {
+        format: "texel 1",
+        generator: info.generator.clone(),
+        file_bytes,
+        raw_bytes: texel
+            .levels
+            .iter()
+            .map(|l| (l.cell_count() * per_cell_bytes) as u64)
+            .sum(),
+        density_model: info.density_model,
+        extinction_scale: info.extinction_scale,
+        model_min: info.model_min,
+        model_max: info.model_max,
+        origin: info.origin,
+        levels: texel
+            .levels
+            .iter()
+            .map(|l| LevelSummary {
+                dims: l.dims,
+                cell: l.cell,
+            })
+            .collect(),
+        channels,
+        fill_ratio: filled as f64 / n,
+        filled_without_normal: without_normal as f64 / filled.max(1) as f64,
+        triangles: info.triangles,
+        foliage_triangles: info.foliage_triangles,
+        coverage_mesh: info.mesh_coverage,
+        coverage_texture,
+        sources: info.sources.clone(),
+        inputs_sha256: info.inputs_sha256,
+        parameters: info.parameters.clone(),
+    }
+}
+
+pub fn to_text(s: &Summary) -> String {
+    let mut o = String::new();
+    let l0 = &s.levels[0];
+    let _ = writeln!(o, "format        {} (written by {})", s.format, s.generator);
+    let _ = writeln!(
+        o,
+        "size          {} bytes on disk, {} raw ({:.1}x compression)",
+        s.file_bytes,
+        s.raw_bytes,
+        s.raw_bytes as f64 / s.file_bytes.max(1) as f64
+    );
+    let _ = writeln!(
+        o,
+        "resolution    {} x {} x {} cells of {:.4} m",
+        l0.dims[0], l0.dims[1], l0.dims[2], l0.cell
+    );
+    let chain: Vec<String> = s
+        .levels
+        .iter()
+        .map(|l| format!("{}x{}x{}", l.dims[0], l.dims[1], l.dims[2]))
+        .collect();
+    let _ = writeln!(o, "levels        {}: {}", s.levels.len(), chain.join(" "));
+    let f = |v: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
+    let _ = writeln!(
+        o,
+        "model bounds  {} .. {} m",
+        f(s.model_min),
+        f(s.model_max)
+    );
+    let _ = writeln!(o, "grid origin   {} m", f(s.origin));
+    let model = match s.density_model {
+        DensityModel::Occupancy => format!(
+            "occupancy, extinction = {:.4} /m x occupancy",
+            s.extinction_scale
+        ),
+        DensityModel::Transmittance => "transmittance-calibrated extinction (1/m)".to_string(),
+    };
+    let _ = writeln!(o, "density       {model}");
+    let _ = writeln!(
+        o,
+        "triangles     {} ({} foliage)",
+        s.triangles, s.foliage_triangles
+    );
+    let _ = writeln!(
+        o,
+        "fill ratio    {:.3} of cells have extinction; {:.3} of those have no normal (zero gradient)",
+        s.fill_ratio, s.filled_without_normal
+    );
+    let _ = writeln!(o, "coverage      axis   mesh    texture");
+    for (a, name) in ["x", "y", "z"].iter().enumerate() {
+        let _ = writeln!(
+            o,
+            "              {name}      {:.4}  {:.4}",
+            s.coverage_mesh[a], s.coverage_texture[a]
+        );
+    }
+    let _ = writeln!(
+        o,
+        "channels      (level 0)                     min          max         mean"
+    );
+    for c in &s.channels {
+        let _ = writeln!(
+            o,
+            "  {:<26} {:>6}  {:>11.4} {:>12.4} {:>12.4}",
+            c.name, c.unit, c.min, c.max, c.mean
+        );
+    }
+    let p = &s.parameters;
+    let gamma = p
+        .requested_gamma
+        .map_or("fitted".to_string(), |g| format!("{g}"));
+    let _ = writeln!(
+        o,
+        "bake          --resolution {} --fine {} --foliage {:?} gamma {gamma}",
+        p.resolution, p.fine, p.foliage_pattern
+    );
+    let _ = writeln!(o, "inputs        sha256 {}", hex(&s.inputs_sha256));
+    for src in &s.sources {
+        let _ = writeln!(
+            o,
+            "  {}  {} bytes  sha256 {}",
+            src.path,
+            src.bytes,
+            hex(&src.sha256)
+        );
+    }
+    o
+}

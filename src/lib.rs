@@ -1,0 +1,21 @@
+//! texel-forest: forest scenery from volumetric tree textures.
+//!
+//! The pipeline has stages that talk only through files: `bake` turns a glTF tree into a
+//! `.texel` 3D texture, `place` scatters instances over a terrain, `render` ray traces them.
+//! This library holds every stage; the `texel` binary only parses arguments and dispatches.
+
+// Numeric code indexes parallel arrays by the same small index, as the maths does.
+#![allow(clippy::needless_range_loop)]
+
+pub mod bake;
+pub mod color;
+pub mod formats;
+pub mod geom;
+pub mod import;
+pub mod inspect;
+pub mod mesh_tracer;
+pub mod output;
+pub mod procedural;
+pub mod rng;
+pub mod silhouette;
+pub mod volume;

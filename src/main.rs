@@ -1,0 +1,20 @@
+//! `texel`: the command-line front of texel-forest. Parses, dispatches, reports.
+
+mod cli;
+mod commands;
+
+use clap::Parser;
+
+fn main() -> std::process::ExitCode {
+    let cli = cli::Cli::parse();
+    match commands::run(cli) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the context chain joined, outermost first.
+            let message: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            // Build logs and scripts expect one line per error.
+            eprintln!("texel: error: {}", message.join(": ").replace('\n', " "));
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

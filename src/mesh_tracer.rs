@@ -1,0 +1,82 @@
+//! Ray queries against an imported mesh, honouring alpha-tested materials: the ground truth a
+//! texture is measured against.
+
+use glam::Vec3;
+
+use crate::geom::{Aabb, Bvh, Ray, TriangleHit, intersect_triangle};
+use crate::import::{AlphaMode, Mesh};
+use crate::rng;
+
+/// Key of the random stream that decides coverage of alpha-blended surfaces.
+const BLEND_STREAM: u64 = 0x7472_6163_6564;
+
+pub struct MeshTracer<'a> {
+    mesh: &'a Mesh,
+    corners: Vec<[Vec3; 3]>,
+    bvh: Bvh,
+}
+
+impl<'a> MeshTracer<'a> {
+    pub fn new(mesh: &'a Mesh) -> Self {
+        let corners: Vec<[Vec3; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|t| t.vertices.map(|v| mesh.positions[v as usize]))
+            .collect();
+        let boxes: Vec<Aabb> = corners.iter().map(|c| Aabb::of_points(c)).collect();
+        MeshTracer {
+            mesh,
+            bvh: Bvh::build(&boxes),
+            corners,
+        }
+    }
+
+    /// Whether the surface of triangle `t` is there at barycentric `w` (alpha mask or, for
+    /// blended materials, alpha as a coverage probability keyed by `key`).
+    fn covers(&self, t: u32, w: [f32; 3], key: u64) -> bool {
+        let tri = &self.mesh.triangles[t as usize];
+        let alpha_mode = self.mesh.materials[tri.material as usize].alpha_mode;
+        if alpha_mode == AlphaMode::Opaque {
+            return true;
+        }
+        let alpha = self.mesh.base_color(tri, w).w;
+        match alpha_mode {
+            AlphaMode::Mask { cutoff } => alpha >= cutoff,
+            _ => alpha as f64 > rng::unit(rng::hash3(key, t as u64, BLEND_STREAM)),
+        }
+    }
+
+    /// The nearest covered surface along `ray` within (t_min, t_max): triangle and hit.
+    pub fn nearest(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        key: u64,
+    ) -> Option<(u32, TriangleHit)> {
+        let mut best = None;
+        self.bvh.traverse(ray, t_min, t_max, |t, tmax| {
+            let hit = intersect_triangle(ray, self.corners[t as usize], t_min, tmax)?;
+            if !self.covers(t, hit.w, key) {
+                return None;
+            }
+            best = Some((t, hit));
+            Some(hit.t)
+        });
+        best
+    }
+
+    /// Whether any covered surface lies along `ray` within (t_min, t_max).
+    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32, key: u64) -> bool {
+        let mut hit = false;
+        self.bvh.traverse(ray, t_min, t_max, |t, tmax| {
+            let h = intersect_triangle(ray, self.corners[t as usize], t_min, tmax)?;
+            if !self.covers(t, h.w, key) {
+                return None;
+            }
+            hit = true;
+            Some(t_min)
+        });
+        hit
+    }
+}

@@ -1,0 +1,187 @@
+//! A baked 3D texture in memory: a mip chain of grids of extinction, density gradient and
+//! albedo, split into wood and foliage. This is what `.texel` files hold (see
+//! `formats/texel.md`) and what the renderer samples.
+//!
+//! Values are cell averages located at cell centres; between centres they are interpolated
+//! trilinearly, within half a cell of the grid's faces they are held constant (clamp to edge),
+//! and outside the grid the texture is empty. With that convention the optical depth along any
+//! axis-aligned line through cell centres is exactly the sum of `sigma x cell` over the cells.
+
+use glam::DVec3;
+use serde::Serialize;
+
+/// The two parts of a tree a renderer treats differently: foliage follows the season.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+pub enum Part {
+    Wood = 0,
+    Foliage = 1,
+}
+
+impl Part {
+    pub const ALL: [Part; 2] = [Part::Wood, Part::Foliage];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Part::Wood => "wood",
+            Part::Foliage => "foliage",
+        }
+    }
+}
+
+/// How the density channels relate to extinction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, bincode::Encode, bincode::Decode)]
+pub enum DensityModel {
+    /// The paper's: density is the solid occupancy of the cell (0..1), extinction is gamma x it.
+    Occupancy,
+    /// Density is extinction (1/m) calibrated so axis-aligned optical depths match the mesh.
+    Transmittance,
+}
+
+impl DensityModel {
+    pub fn name(self) -> &'static str {
+        match self {
+            DensityModel::Occupancy => "occupancy",
+            DensityModel::Transmittance => "transmittance",
+        }
+    }
+}
+
+/// One level of the mip chain. Arrays are indexed `x + nx * (y + ny * z)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Level {
+    pub dims: [usize; 3],
+    /// Edge of a cell, metres.
+    pub cell: f64,
+    /// Density per part (see [`DensityModel`]).
+    pub density: [Vec<f32>; 2],
+    /// Gradient of each part's density (density units per metre), by the 3D Sobel operator.
+    pub gradient: [Vec<[f32; 3]>; 2],
+    /// Linear albedo of each part's surfaces; filled in from neighbours where the part is absent.
+    pub albedo: [Vec<[f32; 3]>; 2],
+}
+
+impl Level {
+    pub fn empty(dims: [usize; 3], cell: f64) -> Level {
+        let n = dims.iter().product();
+        Level {
+            dims,
+            cell,
+            density: [vec![0.0; n], vec![0.0; n]],
+            gradient: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
+            albedo: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
+        }
+    }
+
+    pub fn cell_count(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    pub fn index(&self, x: usize, y: usize, z: usize) -> usize {
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+
+    /// Trilinear interpolation of a per-cell field at `p`, in cell units from the grid origin
+    /// (cell centres at i + 0.5). Clamp to edge inside the grid, zero outside.
+    pub fn interpolate<
+        T: Copy + Default + std::ops::Add<Output = T> + std::ops::Mul<f32, Output = T>,
+    >(
+        &self,
+        data: &[T],
+        p: DVec3,
+    ) -> T {
+        let d = self.dims;
+        if p.x < 0.0
+            || p.y < 0.0
+            || p.z < 0.0
+            || p.x > d[0] as f64
+            || p.y > d[1] as f64
+            || p.z > d[2] as f64
+        {
+            return T::default();
+        }
+        let axis = |c: f64, n: usize| -> (usize, usize, f32) {
+            let x = (c - 0.5).clamp(0.0, (n - 1) as f64);
+            let i = (x.floor() as usize).min(n - 1);
+            let j = (i + 1).min(n - 1);
+            (i, j, (x - i as f64) as f32)
+        };
+        let (x0, x1, fx) = axis(p.x, d[0]);
+        let (y0, y1, fy) = axis(p.y, d[1]);
+        let (z0, z1, fz) = axis(p.z, d[2]);
+        let at = |x, y, z| data[self.index(x, y, z)];
+        let lerp = |a: T, b: T, t: f32| a * (1.0 - t) + b * t;
+        let c00 = lerp(at(x0, y0, z0), at(x1, y0, z0), fx);
+        let c10 = lerp(at(x0, y1, z0), at(x1, y1, z0), fx);
+        let c01 = lerp(at(x0, y0, z1), at(x1, y0, z1), fx);
+        let c11 = lerp(at(x0, y1, z1), at(x1, y1, z1), fx);
+        lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz)
+    }
+}
+
+/// A file the texture was baked from.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, bincode::Encode, bincode::Decode)]
+pub struct SourceFile {
+    /// Path relative to the directory of the `.texel` file, with `/` separators.
+    pub path: String,
+    #[serde(serialize_with = "crate::formats::hex32")]
+    pub sha256: [u8; 32],
+    pub bytes: u64,
+}
+
+/// The parameters a bake was run with, recorded so a texture can be re-made or compared.
+#[derive(Clone, Debug, PartialEq, Serialize, bincode::Encode, bincode::Decode)]
+pub struct BakeParameters {
+    /// Texture cells along the longest side of the model.
+    pub resolution: u32,
+    /// Fine cells along the longest side of the model.
+    pub fine: u32,
+    /// Case-insensitive regular expression on material names that marks foliage.
+    pub foliage_pattern: String,
+    /// gamma (1/m) given on the command line; `None` = fitted automatically (occupancy only).
+    pub requested_gamma: Option<f64>,
+}
+
+/// Everything about a texture but its voxels.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TexelInfo {
+    pub generator: String,
+    /// Bounds of the model's triangles, model space, metres.
+    pub model_min: [f64; 3],
+    pub model_max: [f64; 3],
+    /// Minimum corner of every level's grid, model space, metres.
+    pub origin: [f64; 3],
+    pub density_model: DensityModel,
+    /// gamma: extinction (1/m) = gamma x density. 1 for the transmittance model.
+    pub extinction_scale: f64,
+    pub triangles: u64,
+    pub foliage_triangles: u64,
+    /// Fraction of the rays parallel to x, y and z, one per fine cell over the grid's face, that
+    /// hit the mesh: the silhouette coverage the texture is calibrated to.
+    pub mesh_coverage: [f64; 3],
+    pub sources: Vec<SourceFile>,
+    /// SHA-256 over the SHA-256 of every source, in order.
+    #[serde(serialize_with = "crate::formats::hex32")]
+    pub inputs_sha256: [u8; 32],
+    pub parameters: BakeParameters,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texel {
+    pub info: TexelInfo,
+    /// Finest first; each level halves the previous (rounding up) down to a single cell.
+    pub levels: Vec<Level>,
+}
+
+impl Texel {
+    pub fn origin(&self) -> DVec3 {
+        DVec3::from(self.info.origin)
+    }
+
+    /// Extinction (1/m) of both parts at model-space point `p` on level `level`.
+    pub fn extinction(&self, level: usize, p: DVec3) -> f32 {
+        let l = &self.levels[level];
+        let q = (p - self.origin()) / l.cell;
+        let s = self.info.extinction_scale as f32;
+        s * (l.interpolate(&l.density[0], q) + l.interpolate(&l.density[1], q))
+    }
+}
