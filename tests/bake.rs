@@ -1,0 +1,357 @@
+//! `texel bake` end to end: outputs, determinism, depfiles, and bad inputs.
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use serde_json::json;
+use texel_forest::procedural::builder::{self, MaterialSpec, ModelBuilder};
+
+#[test]
+fn every_fixture_bakes_and_inspects() {
+    let dir = tempfile::tempdir().unwrap();
+    for tree in FIXTURE_TREES {
+        let input = fixture(tree);
+        let out = dir.path().join("t.texel");
+        let o = run(
+            &["bake", input.to_str().unwrap(), "-o", "t.texel", "--quiet"],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{tree}: {}", stderr(&o));
+        assert!(
+            stderr(&o).is_empty(),
+            "--quiet prints nothing: {}",
+            stderr(&o)
+        );
+        let bytes = std::fs::read(&out).unwrap();
+        let texel = texel_forest::formats::texel::decode(&bytes).unwrap();
+        assert_eq!(texel.levels[0].dims.iter().max(), Some(&32));
+        assert_eq!(texel.levels.last().unwrap().dims, [1, 1, 1]);
+
+        let o = run(&["inspect", "t.texel"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = String::from_utf8(o.stdout).unwrap();
+        for field in [
+            "resolution",
+            "levels",
+            "density",
+            "fill ratio",
+            "coverage",
+            "sha256",
+        ] {
+            assert!(text.contains(field), "{field} missing from:\n{text}");
+        }
+        let o = run(&["inspect", "t.texel", "--json"], dir.path());
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["density_model"], "Transmittance");
+        assert_eq!(v["sources"][0]["sha256"].as_str().unwrap().len(), 64);
+
+        for args in [
+            &["--projection", "y"][..],
+            &["--slice", "z=3"][..],
+            &["--projection", "x", "--level", "2"][..],
+        ] {
+            let mut a = vec!["inspect", "t.texel", "-o", "p.png"];
+            a.extend_from_slice(args);
+            let o = run(&a, dir.path());
+            assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+            let img = image::open(dir.path().join("p.png")).unwrap();
+            assert!(img.width() >= 32 && img.height() >= 32);
+        }
+    }
+}
+
+#[test]
+fn same_inputs_give_the_same_bytes_for_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = fixture("trees/broadleaf.gltf");
+    let i = input.to_str().unwrap();
+    for (threads, name) in [("1", "a.texel"), ("2", "b.texel"), ("2", "c.texel")] {
+        let o = run(&["--threads", threads, "bake", i, "-o", name], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let occupancy = ["--density", "occupancy"];
+    for (threads, name) in [("1", "d.texel"), ("2", "e.texel")] {
+        let mut a = vec!["--threads", threads, "bake", i, "-o", name];
+        a.extend_from_slice(&occupancy);
+        assert!(run(&a, dir.path()).status.success());
+    }
+    let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
+    assert_eq!(read("a.texel"), read("b.texel"), "1 thread vs 2 threads");
+    assert_eq!(read("b.texel"), read("c.texel"), "twice");
+    assert_eq!(
+        read("d.texel"),
+        read("e.texel"),
+        "occupancy, 1 vs 2 threads"
+    );
+}
+
+#[test]
+fn depfile_lists_the_gltf_its_buffer_and_its_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = fixture("trees/broadleaf.gltf");
+    let o = run(
+        &[
+            "bake",
+            input.to_str().unwrap(),
+            "-o",
+            "out dir/b.texel",
+            "--depfile",
+            "b.d",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let dep = std::fs::read_to_string(dir.path().join("b.d")).unwrap();
+    assert!(dep.starts_with("out\\ dir/b.texel: "), "{dep}");
+    for f in ["broadleaf.gltf", "broadleaf.bin", "broadleaf_0.png"] {
+        assert!(dep.contains(f), "{f} missing from {dep}");
+    }
+    assert_eq!(dep.lines().count(), 1);
+    // The texel records its sources relative to itself.
+    let texel = texel_forest::formats::texel::decode(
+        &std::fs::read(dir.path().join("out dir/b.texel")).unwrap(),
+    )
+    .unwrap();
+    let rel = &texel.info.sources[0].path;
+    assert!(
+        rel.ends_with("fixtures/trees/broadleaf.gltf") && rel.starts_with(".."),
+        "{rel}"
+    );
+}
+
+/// A tiny glTF: one primitive of `positions` (indexed as given) with `mode`, written as a
+/// `.gltf` with the buffer in a data URI, then adjusted by `edit`.
+fn tiny_gltf(
+    positions: &[[f32; 3]],
+    mode: u32,
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> Vec<u8> {
+    let bin: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let doc = json!({
+        "asset": { "version": "2.0" },
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 }, "mode": mode }] }],
+        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": positions.len(), "type": "VEC3" }],
+        "bufferViews": [{ "buffer": 0, "byteLength": bin.len() }],
+        "buffers": [{ "byteLength": bin.len() }],
+    });
+    let mut doc: serde_json::Value =
+        serde_json::from_slice(&builder::gltf_with_data_uri(doc, &bin)).unwrap();
+    edit(&mut doc);
+    serde_json::to_vec(&doc).unwrap()
+}
+
+const TETRA: [[f32; 3]; 12] = [
+    [0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [0.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [0.0, 1.0, 0.0],
+];
+
+fn assert_bake_fails(name: &str, bytes: &[u8], needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join(name), bytes).unwrap();
+    let o = run(
+        &["bake", name, "-o", "out.texel", "--depfile", "out.d"],
+        dir.path(),
+    );
+    let mut all = vec![name];
+    all.extend_from_slice(needles);
+    assert_error(&o, &all);
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(
+        left,
+        vec![std::ffi::OsString::from(name)],
+        "no output, depfile or temporary left behind"
+    );
+}
+
+#[test]
+fn a_valid_tiny_model_bakes() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("t.gltf"), tiny_gltf(&TETRA, 4, |_| {})).unwrap();
+    let o = run(&["bake", "t.gltf", "-o", "t.texel"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn bad_gltf_inputs_give_one_clear_error_and_no_output() {
+    assert_bake_fails(
+        "points.gltf",
+        &tiny_gltf(&TETRA, 0, |_| {}),
+        &["no triangles"],
+    );
+    let quad = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 0.0, 1.0],
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 1.0],
+        [0.0, 0.0, 1.0],
+    ];
+    assert_bake_fails("quad.gltf", &tiny_gltf(&quad, 4, |_| {}), &["flat", "Y"]);
+    let mut nan = TETRA;
+    nan[4][1] = f32::NAN;
+    assert_bake_fails(
+        "nan.gltf",
+        &tiny_gltf(&nan, 4, |_| {}),
+        &["POSITION", "not finite"],
+    );
+    let draco = tiny_gltf(&TETRA, 4, |d| {
+        d["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
+        d["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+    });
+    assert_bake_fails(
+        "draco.gltf",
+        &draco,
+        &["KHR_draco_mesh_compression", "not supported"],
+    );
+    let missing = tiny_gltf(&TETRA, 4, |d| {
+        d["buffers"][0] = json!({ "byteLength": 144, "uri": "gone.bin" })
+    });
+    assert_bake_fails("missing.gltf", &missing, &["buffers[0]", "gone.bin"]);
+    let short = tiny_gltf(&TETRA, 4, |d| d["accessors"][0]["count"] = json!(13));
+    assert_bake_fails("short.gltf", &short, &["POSITION", "bufferView 0"]);
+    let bad_index = tiny_gltf(&TETRA, 4, |d| {
+        d["meshes"][0]["primitives"][0]["indices"] = json!(1);
+        d["accessors"].as_array_mut().unwrap().push(json!({ "bufferView": 0, "byteOffset": 12, "componentType": 5125, "count": 3, "type": "SCALAR" }));
+    });
+    assert_bake_fails("index.gltf", &bad_index, &["indices", "out of range"]);
+    let cycle = tiny_gltf(&TETRA, 4, |d| {
+        d["nodes"] = json!([{ "mesh": 0, "children": [1] }, { "children": [0] }])
+    });
+    assert_bake_fails("cycle.gltf", &cycle, &["cyclic"]);
+    let remote = tiny_gltf(&TETRA, 4, |d| {
+        d["buffers"][0]["uri"] = json!("https://example.com/a.bin")
+    });
+    assert_bake_fails("remote.gltf", &remote, &["not a relative path"]);
+    assert_bake_fails(
+        "junk.glb",
+        b"glTF\x02\x00\x00\x00\xff\xff\xff\xff",
+        &["GLB", "truncated"],
+    );
+    assert_bake_fails("text.gltf", b"this is not json", &["not valid glTF"]);
+}
+
+#[test]
+fn missing_input_and_bad_flags_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_error(
+        &run(&["bake", "nope.glb", "-o", "x.texel"], dir.path()),
+        &["nope.glb", "cannot read"],
+    );
+    let input = fixture("trees/conifer.glb");
+    let i = input.to_str().unwrap();
+    assert_error(
+        &run(&["bake", i, "-o", "x.texel", "--fine", "100"], dir.path()),
+        &["--fine 100", "multiple"],
+    );
+    assert_error(
+        &run(&["bake", i, "-o", "x.texel", "--gamma", "3"], dir.path()),
+        &["--gamma", "occupancy"],
+    );
+    assert_error(
+        &run(
+            &["bake", i, "-o", "x.texel", "--foliage", "(unclosed"],
+            dir.path(),
+        ),
+        &["--foliage"],
+    );
+    // A malformed command line is a usage error: status 2.
+    assert_eq!(run(&["bake", i], dir.path()).status.code(), Some(2));
+    assert_eq!(
+        run(
+            &["bake", i, "-o", "x.texel", "--density", "fog"],
+            dir.path()
+        )
+        .status
+        .code(),
+        Some(2)
+    );
+    assert!(
+        std::fs::read_dir(dir.path()).unwrap().next().is_none(),
+        "nothing written"
+    );
+}
+
+#[test]
+fn alpha_masked_leaf_cards_bake_as_leaves_not_as_quads() {
+    // The same cards twice: alpha-masked by the leaf texture, and opaque.
+    let build = |masked: bool| {
+        let mut b = ModelBuilder::default();
+        let mask = masked.then(|| (texel_forest::procedural::trees::leaf_texture(), 0.5));
+        let m = b.material(MaterialSpec {
+            name: "card".into(),
+            color: [0.2, 0.5, 0.1, 1.0],
+            mask,
+        });
+        for i in 0..8 {
+            for j in 0..8 {
+                b.card(
+                    m,
+                    Vec3::new(i as f32 * 0.5, 1.0 + j as f32 * 0.5, 0.0),
+                    Vec3::X * 0.4,
+                    Vec3::Y * 0.4,
+                );
+            }
+        }
+        // A post, so the model is not flat.
+        let w = b.material(MaterialSpec {
+            name: "bark".into(),
+            color: [0.1; 4],
+            mask: None,
+        });
+        b.tube(
+            w,
+            &[
+                (Vec3::new(1.75, 0.0, 0.0), 0.05),
+                (Vec3::new(1.75, 0.0, 1.0), 0.05),
+            ],
+            6,
+        );
+        let f = b.to_gltf(None, "test");
+        builder::glb(&f.doc, &f.bin)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut coverage = vec![];
+    for (name, masked) in [("masked.glb", true), ("opaque.glb", false)] {
+        std::fs::write(dir.path().join(name), build(masked)).unwrap();
+        let o = run(&["bake", name, "-o", "t.texel"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let t = texel_forest::formats::texel::decode(
+            &std::fs::read(dir.path().join("t.texel")).unwrap(),
+        )
+        .unwrap();
+        coverage.push(t.info.mesh_coverage[2]);
+        if masked {
+            assert!(
+                t.info.foliage_triangles == 128,
+                "alpha-masked cards are foliage"
+            );
+        }
+    }
+    // The leaf shape covers a bit over half of its card.
+    let ratio = coverage[0] / coverage[1];
+    assert!(
+        (0.4..0.75).contains(&ratio),
+        "masked / opaque coverage {ratio}"
+    );
+}
