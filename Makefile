@@ -1,0 +1,55 @@
+# texel-forest: `make demo` runs the pipeline on the fixtures, `make test` runs the tests.
+# Every stage is a file-to-file rule with a depfile, the way a user's build would drive texel.
+
+CARGO ?= cargo
+TEXEL := target/release/texel
+OUT := out
+TREES := conifer broadleaf bare
+TEXELS := $(TREES:%=$(OUT)/trees/%.texel)
+VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
+           $(OUT)/trees/$(t)-projection-z.png $(OUT)/trees/$(t)-projection-y.png \
+           $(OUT)/trees/$(t)-slice-y10.png)
+
+.PHONY: demo test bench accuracy fixtures clean FORCE
+.DELETE_ON_ERROR:
+
+demo: $(TEXELS) $(VIEWS)
+	@echo "demo: outputs under $(OUT)/trees/ (texel files, summaries, pictures)"
+
+test:
+	$(CARGO) test --release
+
+bench:
+	$(CARGO) bench --bench bake
+
+accuracy:
+	$(CARGO) run --release --example accuracy -- --anisotropy
+
+# Regenerates the procedural fixtures and the golden .texel; tests check they match.
+fixtures:
+	$(CARGO) run --release --example make_fixtures -- fixtures
+
+clean:
+	rm -rf $(OUT)
+
+# cargo decides whether the binary is stale; Make re-reads its timestamp afterwards.
+$(TEXEL): FORCE
+	$(CARGO) build --release --bin texel
+
+$(OUT)/trees/%.texel: fixtures/trees/%.glb $(TEXEL)
+	$(TEXEL) bake $< -o $@ --depfile $@.d
+$(OUT)/trees/%.texel: fixtures/trees/%.gltf $(TEXEL)
+	$(TEXEL) bake $< -o $@ --depfile $@.d
+
+$(OUT)/trees/%.txt: $(OUT)/trees/%.texel
+	$(TEXEL) inspect $< > $@
+$(OUT)/trees/%.json: $(OUT)/trees/%.texel
+	$(TEXEL) inspect $< --json > $@
+$(OUT)/trees/%-projection-z.png: $(OUT)/trees/%.texel
+	$(TEXEL) inspect $< --projection z -o $@
+$(OUT)/trees/%-projection-y.png: $(OUT)/trees/%.texel
+	$(TEXEL) inspect $< --projection y -o $@
+$(OUT)/trees/%-slice-y10.png: $(OUT)/trees/%.texel
+	$(TEXEL) inspect $< --slice y=10 -o $@
+
+-include $(TEXELS:%=%.d)
