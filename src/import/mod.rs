@@ -11,6 +11,8 @@ mod accessor;
 mod document;
 mod image;
 mod scene;
+#[cfg(test)]
+mod tests;
 
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -1,0 +1,238 @@
+//! Import of the glTF features trees use, each on a small hand-written document.
+
+use base64::Engine as _;
+use glam::{Vec2, Vec3, Vec4};
+use serde_json::{Value, json};
+
+use super::{AlphaMode, load};
+
+/// Appends `bytes` to `bin` (4-byte aligned) and returns a bufferView over them.
+fn view(bin: &mut Vec<u8>, views: &mut Vec<Value>, bytes: &[u8]) -> usize {
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    views.push(json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len() }));
+    bin.extend_from_slice(bytes);
+    views.len() - 1
+}
+
+fn f32s(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// Writes `doc` with `bin` as a data URI into a temporary `.gltf` and imports it.
+fn import(mut doc: Value, bin: &[u8]) -> super::Model {
+    doc["asset"] = json!({ "version": "2.0" });
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bin)
+    );
+    doc["buffers"] = json!([{ "byteLength": bin.len(), "uri": uri }]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    load(&path).unwrap()
+}
+
+const SQUARE: [f32; 12] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0];
+
+fn triangle_normal(m: &super::Mesh, t: usize) -> Vec3 {
+    let [a, b, c] = m.triangles[t].vertices.map(|v| m.positions[v as usize]);
+    (b - a).cross(c - a).normalize()
+}
+
+#[test]
+fn strips_and_fans_become_the_specified_triangles() {
+    let (mut bin, mut views) = (vec![], vec![]);
+    let v = view(&mut bin, &mut views, &f32s(&SQUARE));
+    let doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [
+            { "attributes": { "POSITION": 0 }, "mode": 5 },
+            { "attributes": { "POSITION": 0 }, "mode": 6 },
+        ] }],
+        "accessors": [{ "bufferView": v, "componentType": 5126, "count": 4, "type": "VEC3" }],
+        "bufferViews": views,
+    });
+    let m = import(doc, &bin).mesh;
+    // Strip 0 1 2 3 -> (0 1 2), (1 3 2); fan -> (1 2 0), (2 3 0). Strip triangles keep one
+    // facing (+z) as the specification's alternation intends.
+    let strip: Vec<[u32; 3]> = m.triangles[..2].iter().map(|t| t.vertices).collect();
+    assert_eq!(strip, vec![[0, 1, 2], [1, 3, 2]]);
+    assert!(triangle_normal(&m, 0).z > 0.99 && triangle_normal(&m, 1).z > 0.99);
+    let fan: Vec<[u32; 3]> = m.triangles[2..]
+        .iter()
+        .map(|t| t.vertices.map(|v| v - 4))
+        .collect();
+    assert_eq!(fan, vec![[1, 2, 0], [2, 3, 0]]);
+}
+
+/// A tetrahedron with outward faces, as a non-indexed triangle list.
+const TETRA: [[f32; 3]; 12] = [
+    [0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [0.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [0.0, 1.0, 0.0],
+];
+
+#[test]
+fn node_transforms_compose_and_mirroring_keeps_faces_outward() {
+    let (mut bin, mut views) = (vec![], vec![]);
+    let v = view(&mut bin, &mut views, &f32s(TETRA.as_flattened()));
+    let translate_matrix = [
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 10.0, 0.0, 0.0, 1.0,
+    ];
+    let doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [
+            { "matrix": translate_matrix, "children": [1, 2] },
+            { "mesh": 0, "translation": [0.0, 5.0, 0.0], "scale": [2.0, 2.0, 2.0] },
+            { "mesh": 0, "scale": [1.0, 1.0, -1.0], "rotation": [0.0, std::f32::consts::FRAC_1_SQRT_2, 0.0, std::f32::consts::FRAC_1_SQRT_2] },
+        ],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "accessors": [{ "bufferView": v, "componentType": 5126, "count": 12, "type": "VEC3" }],
+        "bufferViews": views,
+    });
+    let m = import(doc, &bin).mesh;
+    assert_eq!(m.triangles.len(), 8);
+    // Parent matrix (x + 10) then child TRS (scale 2, y + 5): corner (0, 1, 0) -> (10, 7, 0).
+    assert_eq!(m.positions[1], Vec3::new(10.0, 7.0, 0.0));
+    for copy in 0..2 {
+        let tris = copy * 4..copy * 4 + 4;
+        let centre = tris
+            .clone()
+            .flat_map(|t| m.triangles[t].vertices)
+            .map(|v| m.positions[v as usize])
+            .sum::<Vec3>()
+            / 12.0;
+        for t in tris {
+            let c = m.triangles[t]
+                .vertices
+                .map(|v| m.positions[v as usize])
+                .iter()
+                .sum::<Vec3>()
+                / 3.0;
+            assert!(
+                triangle_normal(&m, t).dot(c - centre) > 0.0,
+                "copy {copy} triangle {t} faces inwards"
+            );
+        }
+    }
+}
+
+#[test]
+fn normalized_sparse_accessors_and_vertex_colours_decode() {
+    let (mut bin, mut views) = (vec![], vec![]);
+    let p = view(&mut bin, &mut views, &f32s(&SQUARE[..9]));
+    // COLOR_0 as normalized unsigned bytes, RGBA.
+    let c = view(
+        &mut bin,
+        &mut views,
+        &[255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 128],
+    );
+    // Sparse substitution: vertex 2 moves to (0, 3, 0).
+    let si = view(&mut bin, &mut views, &2u16.to_le_bytes());
+    let sv = view(&mut bin, &mut views, &f32s(&[0.0, 3.0, 0.0]));
+    let doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0, "COLOR_0": 1 } }] }],
+        "accessors": [
+            { "bufferView": p, "componentType": 5126, "count": 3, "type": "VEC3",
+              "sparse": { "count": 1, "indices": { "bufferView": si, "componentType": 5123 }, "values": { "bufferView": sv } } },
+            { "bufferView": c, "componentType": 5121, "normalized": true, "count": 3, "type": "VEC4" },
+        ],
+        "bufferViews": views,
+    });
+    let m = import(doc, &bin).mesh;
+    assert_eq!(m.positions[2], Vec3::new(0.0, 3.0, 0.0));
+    assert_eq!(m.colors[0], Vec4::new(1.0, 0.0, 0.0, 1.0));
+    assert!((m.colors[2].w - 128.0 / 255.0).abs() < 1e-6);
+    // Base colour at a vertex is factor x COLOR_0 (default material: white).
+    assert_eq!(
+        m.base_color(&m.triangles[0], [0.0, 1.0, 0.0]),
+        Vec4::new(0.0, 1.0, 0.0, 1.0)
+    );
+}
+
+#[test]
+fn base_colour_textures_are_decoded_from_srgb_and_transformed() {
+    // A 2 x 1 texture: left texel sRGB 188 (linear ~0.5), right texel black with alpha 0.
+    let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 0, 0, 0, 0]).unwrap();
+    let png = crate::procedural::png(&img);
+    let (mut bin, mut views) = (vec![], vec![]);
+    let p = view(&mut bin, &mut views, &f32s(&SQUARE[..9]));
+    let uv = view(
+        &mut bin,
+        &mut views,
+        &f32s(&[0.25, 0.5, 0.25, 0.5, 0.25, 0.5]),
+    );
+    let i = view(&mut bin, &mut views, &png);
+    let doc = json!({
+        "extensionsUsed": ["KHR_texture_transform"],
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [
+            { "attributes": { "POSITION": 0, "TEXCOORD_0": 1 }, "material": 0 },
+            { "attributes": { "POSITION": 0, "TEXCOORD_0": 1 }, "material": 1 },
+        ] }],
+        "materials": [
+            { "name": "Leaves", "alphaMode": "MASK", "alphaCutoff": 0.4,
+              "pbrMetallicRoughness": { "baseColorFactor": [1.0, 0.5, 1.0, 1.0], "baseColorTexture": { "index": 0 } } },
+            { "pbrMetallicRoughness": { "baseColorTexture": { "index": 0,
+              "extensions": { "KHR_texture_transform": { "offset": [0.5, 0.0] } } } } },
+        ],
+        "textures": [{ "source": 0, "sampler": 0 }],
+        "samplers": [{ "magFilter": 9728, "wrapS": 33071, "wrapT": 33071 }],
+        "images": [{ "bufferView": i, "mimeType": "image/png" }],
+        "accessors": [
+            { "bufferView": p, "componentType": 5126, "count": 3, "type": "VEC3" },
+            { "bufferView": uv, "componentType": 5126, "count": 3, "type": "VEC2" },
+        ],
+        "bufferViews": views,
+    });
+    let m = import(doc, &bin).mesh;
+    assert_eq!(m.materials[0].alpha_mode, AlphaMode::Mask { cutoff: 0.4 });
+    assert_eq!(m.materials[0].name, "Leaves");
+    let left = m.base_color(&m.triangles[0], [1.0, 0.0, 0.0]);
+    assert!(
+        (left.x - 0.5029).abs() < 1e-3 && (left.y - 0.2515).abs() < 1e-3,
+        "{left:?}"
+    );
+    assert_eq!(m.uvs[0], Vec2::new(0.25, 0.5));
+    // The transform shifts u by half the texture: the transparent black texel.
+    let right = m.base_color(&m.triangles[1], [1.0, 0.0, 0.0]);
+    assert_eq!(right, Vec4::ZERO);
+}
+
+#[test]
+fn points_and_lines_are_skipped_with_a_warning() {
+    let (mut bin, mut views) = (vec![], vec![]);
+    let v = view(&mut bin, &mut views, &f32s(&SQUARE));
+    let doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [
+            { "attributes": { "POSITION": 0 }, "mode": 1 },
+            { "attributes": { "POSITION": 0 }, "mode": 4, "indices": 1 },
+        ] }],
+        "accessors": [
+            { "bufferView": v, "componentType": 5126, "count": 4, "type": "VEC3" },
+            { "bufferView": view(&mut bin, &mut views, &[0, 1, 2]), "componentType": 5121, "count": 3, "type": "SCALAR" },
+        ],
+        "bufferViews": views,
+    });
+    let model = import(doc, &bin);
+    assert_eq!(model.mesh.triangles.len(), 1);
+    assert_eq!(model.warnings.len(), 1);
+    assert!(model.warnings[0].contains("Lines"), "{:?}", model.warnings);
+}
