@@ -4,10 +4,10 @@
 //! Each figure is the median of several runs of the whole bake (scan, density, albedo, Sobel,
 //! mips) after import; encoding and writing the file are timed separately.
 
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use texel_forest::bake::{self, BakeSettings};
+use texel_forest::corpus;
 use texel_forest::formats::texel;
 use texel_forest::import::{self, Mesh};
 use texel_forest::procedural::{builder, trees};
@@ -70,23 +70,10 @@ fn main() {
         "model", "tris", "fine -> res", "bake s", "encode s", "KiB"
     );
 
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut models: Vec<PathBuf> = ["conifer.glb", "broadleaf.gltf", "bare.glb"]
-        .iter()
-        .map(|f| root.join("fixtures/trees").join(f))
-        .collect();
-    let real = root.join("../shared/realdata/trees");
-    if let Ok(dirs) = std::fs::read_dir(&real) {
-        let mut found: Vec<PathBuf> = dirs
-            .flatten()
-            .flat_map(|d| std::fs::read_dir(d.path()).into_iter().flatten().flatten())
-            .map(|e| e.path())
-            .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("glb" | "gltf")))
-            .collect();
-        found.sort();
-        models.extend(found);
-    } else {
-        println!("(../shared/realdata absent: real trees skipped)");
+    let mut models = corpus::fixture_trees();
+    match corpus::real_trees() {
+        Some(real) => models.extend(real),
+        None => println!("(../shared/realdata absent: real trees skipped)"),
     }
     for path in models {
         let name = path

@@ -8,32 +8,12 @@
 //! * with `--anisotropy`, the same views for per-axis extinction combined by direction, the
 //!   alternative `formats/texel.md` weighs.
 
-use std::path::{Path, PathBuf};
-
 use glam::DVec3;
 use texel_forest::bake::{self, BakeSettings};
+use texel_forest::corpus;
 use texel_forest::mesh_tracer::MeshTracer;
-use texel_forest::silhouette::{Frame, axis_columns, compare, random_directions};
+use texel_forest::silhouette::{Frame, axis_columns, over_views, random_directions};
 use texel_forest::volume::{DensityModel, Level};
-
-fn models() -> Vec<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut m: Vec<PathBuf> = ["conifer.glb", "broadleaf.gltf", "bare.glb"]
-        .iter()
-        .map(|f| root.join("fixtures/trees").join(f))
-        .collect();
-    if let Ok(dirs) = std::fs::read_dir(root.join("../shared/realdata/trees")) {
-        let mut found: Vec<PathBuf> = dirs
-            .flatten()
-            .flat_map(|d| std::fs::read_dir(d.path()).into_iter().flatten().flatten())
-            .map(|e| e.path())
-            .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("glb" | "gltf")))
-            .collect();
-        found.sort();
-        m.extend(found);
-    }
-    m
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -67,7 +47,10 @@ fn main() {
         "{:<26} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9}",
         "model", "cov x", "cov y", "cov z", "err x", "err y", "err z", "bias", "|bias|", "rmse"
     );
-    for path in models() {
+    let models = corpus::fixture_trees()
+        .into_iter()
+        .chain(corpus::real_trees().into_iter().flatten());
+    for path in models {
         let name = path
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -78,24 +61,10 @@ fn main() {
         let cols: Vec<_> = (0..3)
             .map(|a| axis_columns(&tracer, &texel, a, 8))
             .collect();
-        let l0 = &texel.levels[0];
-        let origin = texel.origin();
-        let frame = Frame {
-            lo: origin,
-            hi: origin + DVec3::from(l0.dims.map(|d| d as f64)) * l0.cell,
-            pixel: l0.cell,
-        };
-        let views = |f: &(dyn Fn(DVec3, DVec3) -> f64 + Sync)| {
-            let (mut bias, mut abs, mut rmse) = (0.0, 0.0, 0.0);
-            for d in &dirs {
-                let e = compare(&tracer, frame, *d, 3, f);
-                bias += e.coverage_error() / dirs.len() as f64;
-                abs += e.coverage_error().abs() / dirs.len() as f64;
-                rmse += e.pixel_rmse / dirs.len() as f64;
-            }
-            (bias, abs, rmse)
-        };
-        let (bias, abs, rmse) = views(&|p, _| texel.extinction(0, p) as f64);
+        let frame = Frame::of(&texel);
+        let v = over_views(&tracer, frame, &dirs, 3, &|p, _| {
+            texel.extinction(0, p) as f64
+        });
         println!(
             "{:<26} {:>8.4} {:>8.4} {:>8.4} {:>+8.4} {:>+8.4} {:>+8.4} {:>+9.4} {:>9.4} {:>9.4}",
             name,
@@ -105,22 +74,23 @@ fn main() {
             cols[0].coverage_error(),
             cols[1].coverage_error(),
             cols[2].coverage_error(),
-            bias,
-            abs,
-            rmse
+            v.bias,
+            v.abs_bias,
+            v.rmse
         );
         if anisotropy {
             let (grid, axes) = bake::axis_extinctions(&model.mesh, &settings).expect("bakes");
             let level = Level::empty(grid.dims, grid.cell);
-            let (bias, abs, rmse) = views(&|p: DVec3, d: DVec3| {
+            let per_axis = |p: DVec3, d: DVec3| {
                 let q = (p - grid.origin) / grid.cell;
                 (0..3)
                     .map(|a| d[a] * d[a] * level.interpolate(&axes[a], q) as f64)
                     .sum::<f64>()
-            });
+            };
+            let v = over_views(&tracer, frame, &dirs, 3, &per_axis);
             println!(
                 "{:<26} {:>53} {:>+9.4} {:>9.4} {:>9.4}",
-                "  per-axis (anisotropic)", "", bias, abs, rmse
+                "  per-axis (anisotropic)", "", v.bias, v.abs_bias, v.rmse
             );
         }
     }

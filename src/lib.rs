@@ -9,6 +9,7 @@
 
 pub mod bake;
 pub mod color;
+pub mod corpus;
 pub mod formats;
 pub mod geom;
 pub mod import;

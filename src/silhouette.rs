@@ -39,6 +39,50 @@ pub struct Frame {
     pub pixel: f64,
 }
 
+impl Frame {
+    /// The grid box of a texture's finest level, with pixels of one cell.
+    pub fn of(texel: &Texel) -> Frame {
+        let l0 = &texel.levels[0];
+        let lo = texel.origin();
+        Frame {
+            lo,
+            hi: lo + DVec3::from(l0.dims.map(|d| d as f64)) * l0.cell,
+            pixel: l0.cell,
+        }
+    }
+}
+
+/// Errors of many views, averaged.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ViewSummary {
+    /// Mean relative coverage error (positive: the texture covers more than the mesh).
+    pub bias: f64,
+    /// Mean absolute relative coverage error.
+    pub abs_bias: f64,
+    /// Mean per-pixel coverage RMSE.
+    pub rmse: f64,
+}
+
+/// [`compare`] over every direction in `dirs`, averaged.
+pub fn over_views(
+    tracer: &MeshTracer,
+    frame: Frame,
+    dirs: &[DVec3],
+    rays: usize,
+    extinction: &(dyn Fn(DVec3, DVec3) -> f64 + Sync),
+) -> ViewSummary {
+    let n = dirs.len() as f64;
+    let errors: Vec<SilhouetteError> = dirs
+        .iter()
+        .map(|d| compare(tracer, frame, *d, rays, extinction))
+        .collect();
+    ViewSummary {
+        bias: errors.iter().map(|e| e.coverage_error()).sum::<f64>() / n,
+        abs_bias: errors.iter().map(|e| e.coverage_error().abs()).sum::<f64>() / n,
+        rmse: errors.iter().map(|e| e.pixel_rmse).sum::<f64>() / n,
+    }
+}
+
 /// Compares along `dir` with `rays` x `rays` jittered rays per pixel. `extinction(p, dir)`
 /// is the texture's extinction (1/m) at model-space `p` for light going along `dir`.
 pub fn compare(

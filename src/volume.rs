@@ -10,24 +10,6 @@
 use glam::DVec3;
 use serde::Serialize;
 
-/// The two parts of a tree a renderer treats differently: foliage follows the season.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
-pub enum Part {
-    Wood = 0,
-    Foliage = 1,
-}
-
-impl Part {
-    pub const ALL: [Part; 2] = [Part::Wood, Part::Foliage];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Part::Wood => "wood",
-            Part::Foliage => "foliage",
-        }
-    }
-}
-
 /// How the density channels relate to extinction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, bincode::Encode, bincode::Decode)]
 pub enum DensityModel {
@@ -46,7 +28,8 @@ impl DensityModel {
     }
 }
 
-/// One level of the mip chain. Arrays are indexed `x + nx * (y + ny * z)`.
+/// One level of the mip chain. Arrays are indexed `x + nx * (y + ny * z)`; the per-part pairs
+/// are `[wood, foliage]`: foliage follows the season, wood does not.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Level {
     pub dims: [usize; 3],

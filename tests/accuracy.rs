@@ -5,11 +5,10 @@
 mod common;
 
 use common::*;
-use glam::DVec3;
 use texel_forest::bake::{self, BakeSettings};
 use texel_forest::import;
 use texel_forest::mesh_tracer::MeshTracer;
-use texel_forest::silhouette::{Frame, axis_columns, compare, random_directions};
+use texel_forest::silhouette::{Frame, axis_columns, over_views, random_directions};
 use texel_forest::volume::{DensityModel, Texel};
 
 struct Measured {
@@ -24,21 +23,9 @@ struct Measured {
 fn measure(texel: &Texel, mesh: &import::Mesh, views: usize) -> Measured {
     let tracer = MeshTracer::new(mesh);
     let cols: Vec<_> = (0..3).map(|a| axis_columns(&tracer, texel, a, 8)).collect();
-    let l0 = &texel.levels[0];
-    let o = texel.origin();
-    let frame = Frame {
-        lo: o,
-        hi: o + DVec3::from(l0.dims.map(|d| d as f64)) * l0.cell,
-        pixel: l0.cell,
-    };
     let dirs = random_directions(views, 1);
-    let view_bias = dirs
-        .iter()
-        .map(|d| {
-            compare(&tracer, frame, *d, 2, &|p, _| texel.extinction(0, p) as f64).coverage_error()
-        })
-        .sum::<f64>()
-        / views as f64;
+    let extinction = |p, _| texel.extinction(0, p) as f64;
+    let view_bias = over_views(&tracer, Frame::of(texel), &dirs, 2, &extinction).bias;
     Measured {
         axis: [0, 1, 2].map(|a| cols[a].coverage_error()),
         column_rmse: cols.iter().map(|c| c.pixel_rmse).fold(0.0, f64::max),

@@ -15,9 +15,3 @@ pub struct Ray {
     pub origin: Vec3,
     pub dir: Vec3,
 }
-
-impl Ray {
-    pub fn at(&self, t: f32) -> Vec3 {
-        self.origin + self.dir * t
-    }
-}

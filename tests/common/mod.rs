@@ -32,21 +32,13 @@ pub const FIXTURE_TREES: [&str; 3] = [
     "trees/bare.glb",
 ];
 
-/// `../shared/realdata/trees`, or `None` (and a note on stderr) where it is absent.
+/// The real trees, or `None` (and a note on stderr) where `../shared/realdata` is absent.
 pub fn realdata_trees() -> Option<Vec<PathBuf>> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/realdata/trees");
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        eprintln!("skipped: {} is absent", dir.display());
-        return None;
-    };
-    let mut found: Vec<PathBuf> = entries
-        .flatten()
-        .flat_map(|d| std::fs::read_dir(d.path()).into_iter().flatten().flatten())
-        .map(|e| e.path())
-        .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("glb" | "gltf")))
-        .collect();
-    found.sort();
-    Some(found)
+    let found = texel_forest::corpus::real_trees();
+    if found.is_none() {
+        eprintln!("skipped: ../shared/realdata/trees is absent");
+    }
+    found
 }
 
 /// Asserts a failed run: exit status 1, exactly one line on stderr that starts with
