@@ -40,12 +40,12 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
             bail!("-o names a picture: give --slice or --projection with it");
         }
         let s = summary::summarize(&texel, bytes.len() as u64);
-        if args.json {
-            println!("{}", serde_json::to_string_pretty(&s)?);
+        let text = if args.json {
+            serde_json::to_string_pretty(&s)? + "\n"
         } else {
-            print!("{}", summary::to_text(&s));
-        }
-        return Ok(());
+            summary::to_text(&s)
+        };
+        return super::print(&text);
     }
     let Some(out) = &args.output else {
         bail!("--slice and --projection write a picture: give -o FILE.png");

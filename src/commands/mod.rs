@@ -24,3 +24,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 pub fn warn(message: &str) {
     eprintln!("texel: warning: {message}");
 }
+
+/// Writes to standard output; a reader that stops early (`| head`) is not an error.
+pub fn print(text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
+}
