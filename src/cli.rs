@@ -12,7 +12,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     about = "Forest scenery from volumetric tree textures",
     long_about = "Forest scenery from volumetric tree textures.\n\n\
         Stages talk through files: `bake` turns a glTF tree into a .texel 3D texture, \
-        `inspect` shows any intermediate file to a person.\n\n\
+        `place` grows a forest of them on a terrain (.instances), `inspect` shows any \
+        intermediate file to a person.\n\n\
         Exit status: 0 on success, 1 when an input or output is bad (the message names the \
         file and the problem), 2 for a malformed command line."
 )]
@@ -31,6 +32,8 @@ pub struct Cli {
 pub enum Command {
     /// Bake a glTF tree into a .texel 3D texture.
     Bake(BakeArgs),
+    /// Place trees on a terrain: species chosen by habitat, Poisson-disk spacing.
+    Place(PlaceArgs),
     /// Describe a texel-forest file, as text, JSON or pictures.
     Inspect(InspectArgs),
 }
@@ -73,6 +76,35 @@ pub struct BakeArgs {
     pub depfile: Option<PathBuf>,
 }
 
+#[derive(Args, Debug)]
+pub struct PlaceArgs {
+    /// The terrain: a triangulated glTF surface, metres, +Y up.
+    pub terrain: PathBuf,
+    /// The species description (JSON, see formats/species.md); texel paths in it are
+    /// relative to it.
+    #[arg(long, value_name = "FILE")]
+    pub species: PathBuf,
+    /// The .instances file to write.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: PathBuf,
+    /// Random seed: the same seed gives the same forest.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Stop after this many trees.
+    #[arg(long, value_name = "N")]
+    pub max_count: Option<usize>,
+    /// Place only within this rectangle of the ground plane (metres).
+    #[arg(long, value_name = "X0,Z0,X1,Z1")]
+    pub region: Option<String>,
+    /// Cell of the height raster habitat is judged on (metres; default: the mesh's own
+    /// resolution).
+    #[arg(long, value_name = "METRES")]
+    pub cell: Option<f64>,
+    /// Also write a Make rule listing every file placement read.
+    #[arg(long, value_name = "FILE")]
+    pub depfile: Option<PathBuf>,
+}
+
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AxisArg {
     X,
@@ -82,7 +114,7 @@ pub enum AxisArg {
 
 #[derive(Args, Debug)]
 pub struct InspectArgs {
-    /// The file to describe (.texel).
+    /// The file to describe (.texel or .instances).
     pub file: PathBuf,
     /// Print the summary as JSON instead of text.
     #[arg(long)]
@@ -97,6 +129,10 @@ pub struct InspectArgs {
     /// Mip level the pictures show (0 = finest).
     #[arg(long, default_value_t = 0)]
     pub level: usize,
+    /// Top-down picture of a forest over its hillshaded terrain, trees coloured by species
+    /// (.instances; needs -o).
+    #[arg(long)]
+    pub map: bool,
     /// Where to write the picture (PNG).
     #[arg(short, long, value_name = "FILE.png")]
     pub output: Option<PathBuf>,

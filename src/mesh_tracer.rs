@@ -1,9 +1,7 @@
 //! Ray queries against an imported mesh, honouring alpha-tested materials: the ground truth a
 //! texture is measured against.
 
-use glam::Vec3;
-
-use crate::geom::{Aabb, Bvh, Ray, TriangleHit, intersect_triangle};
+use crate::geom::{Ray, TriangleBvh, TriangleHit};
 use crate::import::{AlphaMode, Mesh};
 use crate::rng;
 
@@ -12,22 +10,19 @@ const BLEND_STREAM: u64 = 0x7472_6163_6564;
 
 pub struct MeshTracer<'a> {
     mesh: &'a Mesh,
-    corners: Vec<[Vec3; 3]>,
-    bvh: Bvh,
+    triangles: TriangleBvh,
 }
 
 impl<'a> MeshTracer<'a> {
     pub fn new(mesh: &'a Mesh) -> Self {
-        let corners: Vec<[Vec3; 3]> = mesh
+        let corners = mesh
             .triangles
             .iter()
             .map(|t| t.vertices.map(|v| mesh.positions[v as usize]))
             .collect();
-        let boxes: Vec<Aabb> = corners.iter().map(|c| Aabb::of_points(c)).collect();
         MeshTracer {
             mesh,
-            bvh: Bvh::build(&boxes),
-            corners,
+            triangles: TriangleBvh::new(corners),
         }
     }
 
@@ -54,29 +49,13 @@ impl<'a> MeshTracer<'a> {
         t_max: f32,
         key: u64,
     ) -> Option<(u32, TriangleHit)> {
-        let mut best = None;
-        self.bvh.traverse(ray, t_min, t_max, |t, tmax| {
-            let hit = intersect_triangle(ray, self.corners[t as usize], t_min, tmax)?;
-            if !self.covers(t, hit.w, key) {
-                return None;
-            }
-            best = Some((t, hit));
-            Some(hit.t)
-        });
-        best
+        self.triangles
+            .nearest(ray, t_min, t_max, |t, h| self.covers(t, h.w, key))
     }
 
     /// Whether any covered surface lies along `ray` within (t_min, t_max).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32, key: u64) -> bool {
-        let mut hit = false;
-        self.bvh.traverse(ray, t_min, t_max, |t, tmax| {
-            let h = intersect_triangle(ray, self.corners[t as usize], t_min, tmax)?;
-            if !self.covers(t, h.w, key) {
-                return None;
-            }
-            hit = true;
-            Some(t_min)
-        });
-        hit
+        self.triangles
+            .occluded(ray, t_min, t_max, |t, h| self.covers(t, h.w, key))
     }
 }

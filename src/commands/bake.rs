@@ -37,12 +37,7 @@ pub fn run(args: &BakeArgs, quiet: bool) -> anyhow::Result<()> {
     let mut baked =
         bake::bake(&model.mesh, &settings).with_context(|| args.input.display().to_string())?;
 
-    let out_dir = match args.output.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&out_dir)
-        .with_context(|| format!("cannot create directory {}", out_dir.display()))?;
+    let out_dir = super::output_dir(&args.output)?;
     let mut all = Sha256::new();
     baked.info.sources = model
         .sources

@@ -1,10 +1,14 @@
 //! `texel inspect`: a summary of any texel-forest file, or a picture of it.
 
-use anyhow::{Context, bail};
+use std::path::Path;
 
-use texel_forest::formats::texel;
-use texel_forest::inspect::{pictures, texel as summary};
+use anyhow::{Context, bail};
+use sha2::{Digest, Sha256};
+
+use texel_forest::formats::{instances, texel};
+use texel_forest::inspect::{instances as forest_view, pictures, texel as summary};
 use texel_forest::output::write_atomic;
+use texel_forest::terrain::Terrain;
 
 use crate::cli::{AxisArg, InspectArgs};
 
@@ -29,11 +33,24 @@ fn parse_slice(s: &str) -> anyhow::Result<(usize, usize)> {
     Ok((axis, index.trim().parse().map_err(|_| bad())?))
 }
 
+fn write_png(out: &Path, image: &image::RgbImage) -> anyhow::Result<()> {
+    write_atomic(out, &pictures::png_bytes(image))
+        .with_context(|| format!("cannot write {}", out.display()))
+}
+
 pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
     let file = &args.file;
     let bytes = std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
+    if bytes.starts_with(instances::MAGIC) {
+        return run_instances(args, &bytes);
+    }
+    if args.map {
+        bail!(
+            "--map draws .instances files; {} is not one",
+            file.display()
+        );
+    }
     let texel = texel::decode(&bytes).with_context(|| file.display().to_string())?;
-
     let wants_picture = args.slice.is_some() || args.projection.is_some();
     if !wants_picture {
         if args.output.is_some() {
@@ -77,6 +94,56 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
             axis_index(args.projection.expect("checked above")),
         )
     };
-    write_atomic(out, &pictures::png_bytes(&image))
-        .with_context(|| format!("cannot write {}", out.display()))
+    write_png(out, &image)
+}
+
+fn run_instances(args: &InspectArgs, bytes: &[u8]) -> anyhow::Result<()> {
+    let file = &args.file;
+    if args.slice.is_some() || args.projection.is_some() {
+        bail!(
+            "--slice and --projection draw .texel files; {} is a forest (use --map)",
+            file.display()
+        );
+    }
+    let forest = instances::decode(bytes).with_context(|| file.display().to_string())?;
+    if !args.map {
+        if args.output.is_some() {
+            bail!("-o names a picture: give --map with it");
+        }
+        let s = forest_view::summarize(&forest, bytes.len() as u64);
+        let text = if args.json {
+            serde_json::to_string_pretty(&s)? + "\n"
+        } else {
+            forest_view::to_text(&s)
+        };
+        return super::print(&text);
+    }
+    let Some(out) = &args.output else {
+        bail!("--map writes a picture: give -o FILE.png");
+    };
+    // The terrain, found relative to the forest file, shades the map; a missing or changed
+    // terrain is worth a warning, not a failure.
+    let recorded = &forest.info.terrain[0];
+    let path = file.parent().unwrap_or(Path::new("")).join(&recorded.path);
+    let terrain = match std::fs::read(&path) {
+        Err(e) => {
+            super::warn(&format!(
+                "{}: terrain {} unreadable ({e}); map without relief",
+                file.display(),
+                path.display()
+            ));
+            None
+        }
+        Ok(b) => {
+            if <[u8; 32]>::from(Sha256::digest(&b)) != recorded.sha256 {
+                super::warn(&format!(
+                    "{}: terrain {} changed since placement",
+                    file.display(),
+                    path.display()
+                ));
+            }
+            Some(Terrain::load(&path)?)
+        }
+    };
+    write_png(out, &forest_view::map(&forest, terrain.as_ref(), 1024))
 }

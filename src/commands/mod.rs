@@ -2,6 +2,7 @@
 
 mod bake;
 mod inspect;
+mod place;
 
 use crate::cli::{Cli, Command};
 
@@ -16,6 +17,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
     match cli.command {
         Command::Bake(args) => bake::run(&args, cli.quiet),
+        Command::Place(args) => place::run(&args, cli.quiet),
         Command::Inspect(args) => inspect::run(&args),
     }
 }
@@ -32,4 +34,16 @@ pub fn print(text: &str) -> anyhow::Result<()> {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
         _ => Ok(()),
     }
+}
+
+/// The directory a file will be written in ("." for a bare name), created if missing.
+pub fn output_dir(output: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
+    use anyhow::Context;
+    let dir = match output.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("cannot create directory {}", dir.display()))?;
+    Ok(dir)
 }

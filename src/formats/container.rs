@@ -94,14 +94,38 @@ fn u64_at(b: &[u8], at: usize) -> u64 {
     u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
 }
 
+/// A container whose framing and checksum have been verified, payload still compressed.
+pub struct Opened<'a> {
+    pub minor: u16,
+    pub header: &'a [u8],
+    compressed: &'a [u8],
+    raw_len: u64,
+}
+
 /// Checks and opens a container of format `format` (named in errors) with `magic` and major
-/// version `major`.
+/// version `major`, and decompresses its payload.
 pub fn read(
     bytes: &[u8],
     magic: &[u8; 8],
     format: &'static str,
     major: u16,
 ) -> Result<Container, ContainerError> {
+    let opened = open(bytes, magic, format, major)?;
+    let payload = opened.payload()?;
+    Ok(Container {
+        minor: opened.minor,
+        header: opened.header.to_vec(),
+        payload,
+    })
+}
+
+/// Steps 1 to 4 of reading (see `formats/container.md`): magic, version, lengths, checksum.
+pub fn open<'a>(
+    bytes: &'a [u8],
+    magic: &[u8; 8],
+    format: &'static str,
+    major: u16,
+) -> Result<Opened<'a>, ContainerError> {
     if bytes.len() < 8 || &bytes[..8] != magic {
         let hint = if bytes.len() >= 8 && bytes[1..8] == magic[1..8] {
             ", the first byte was altered".to_string()
@@ -169,25 +193,34 @@ pub fn read(
         )));
     }
     let header_end = PREAMBLE + header_len as usize;
-    let header = bytes[PREAMBLE..header_end].to_vec();
-    let mut payload = Vec::new();
-    let decoder = zstd::stream::read::Decoder::with_buffer(&bytes[header_end..body])
-        .map_err(|e| ContainerError::Corrupt(format!("payload: {e}")))?;
-    decoder
-        .take(raw_len + 1)
-        .read_to_end(&mut payload)
-        .map_err(|e| ContainerError::Corrupt(format!("payload does not decompress: {e}")))?;
-    if payload.len() as u64 != raw_len {
-        return Err(ContainerError::Corrupt(format!(
-            "payload decompresses to {} bytes, the header says {raw_len}",
-            payload.len()
-        )));
-    }
-    Ok(Container {
+    Ok(Opened {
         minor,
-        header,
-        payload,
+        header: &bytes[PREAMBLE..header_end],
+        compressed: &bytes[header_end..body],
+        raw_len,
     })
+}
+
+impl Opened<'_> {
+    /// Step 6: decompresses as a stream with a limit, never trusting the declared length
+    /// for an allocation.
+    pub fn payload(&self) -> Result<Vec<u8>, ContainerError> {
+        let mut payload = Vec::new();
+        let decoder = zstd::stream::read::Decoder::with_buffer(self.compressed)
+            .map_err(|e| ContainerError::Corrupt(format!("payload: {e}")))?;
+        decoder
+            .take(self.raw_len + 1)
+            .read_to_end(&mut payload)
+            .map_err(|e| ContainerError::Corrupt(format!("payload does not decompress: {e}")))?;
+        if payload.len() as u64 != self.raw_len {
+            return Err(ContainerError::Corrupt(format!(
+                "payload decompresses to {} bytes, the header says {}",
+                payload.len(),
+                self.raw_len
+            )));
+        }
+        Ok(payload)
+    }
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! share.
 
 pub mod container;
+pub mod instances;
 pub mod texel;
 
 /// Lower-case hexadecimal of a byte string.

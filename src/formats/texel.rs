@@ -156,19 +156,48 @@ pub fn encode(texel: &Texel) -> Vec<u8> {
     container::write(MAGIC, MAJOR, MINOR, &header, &payload)
 }
 
+fn decode_header(bytes: &[u8]) -> Result<Header, TexelError> {
+    let (header, used): (Header, usize) = bincode::decode_from_slice(bytes, header_config())
+        .map_err(|e| TexelError::Header(e.to_string()))?;
+    if used != bytes.len() {
+        return Err(TexelError::Header(format!(
+            "{} bytes after the header",
+            bytes.len() - used
+        )));
+    }
+    validate(&header)?;
+    Ok(header)
+}
+
+/// The header of `.texel` bytes (checked, payload not decompressed): for tools that need a
+/// texture's bounds but not its voxels.
+pub fn read_info(bytes: &[u8]) -> Result<TexelInfo, TexelError> {
+    let opened = container::open(bytes, MAGIC, "texel", MAJOR)?;
+    Ok(info_of(decode_header(opened.header)?))
+}
+
+fn info_of(header: Header) -> TexelInfo {
+    TexelInfo {
+        generator: header.generator,
+        model_min: header.model_min,
+        model_max: header.model_max,
+        origin: header.origin,
+        density_model: header.density_model,
+        extinction_scale: header.extinction_scale,
+        triangles: header.triangles,
+        foliage_triangles: header.foliage_triangles,
+        mesh_coverage: header.mesh_coverage,
+        sources: header.sources,
+        inputs_sha256: header.inputs_sha256,
+        parameters: header.parameters,
+    }
+}
+
 /// Decodes `.texel` bytes, validating every size before use.
 pub fn decode(bytes: &[u8]) -> Result<Texel, TexelError> {
     let c = container::read(bytes, MAGIC, "texel", MAJOR)?;
     let bad = |m: String| TexelError::Header(m);
-    let (header, used): (Header, usize) =
-        bincode::decode_from_slice(&c.header, header_config()).map_err(|e| bad(e.to_string()))?;
-    if used != c.header.len() {
-        return Err(bad(format!(
-            "{} bytes after the header",
-            c.header.len() - used
-        )));
-    }
-    validate(&header)?;
+    let header = decode_header(&c.header)?;
 
     // Locate every channel's array within each level.
     let per_cell: usize = header
@@ -261,21 +290,10 @@ pub fn decode(bytes: &[u8]) -> Result<Texel, TexelError> {
         }
         levels.push(level);
     }
-    let info = TexelInfo {
-        generator: header.generator,
-        model_min: header.model_min,
-        model_max: header.model_max,
-        origin: header.origin,
-        density_model: header.density_model,
-        extinction_scale: header.extinction_scale,
-        triangles: header.triangles,
-        foliage_triangles: header.foliage_triangles,
-        mesh_coverage: header.mesh_coverage,
-        sources: header.sources,
-        inputs_sha256: header.inputs_sha256,
-        parameters: header.parameters,
-    };
-    Ok(Texel { info, levels })
+    Ok(Texel {
+        info: info_of(header),
+        levels,
+    })
 }
 
 fn validate(h: &Header) -> Result<(), TexelError> {

@@ -3,10 +3,12 @@
 mod aabb;
 mod bvh;
 mod triangle;
+mod triangles;
 
 pub use aabb::Aabb;
 pub use bvh::Bvh;
 pub use triangle::{TriangleHit, intersect_triangle};
+pub use triangles::TriangleBvh;
 
 use glam::Vec3;
 

@@ -1,4 +1,5 @@
 //! Human-readable views of our files: summaries as text or JSON, and pictures.
 
+pub mod instances;
 pub mod pictures;
 pub mod texel;

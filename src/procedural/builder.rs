@@ -143,6 +143,38 @@ impl ModelBuilder {
         }
     }
 
+    /// A height grid of `[nx, nz]` vertices: `heights[i + nx * j]` at (x0 + i cell, z0 + j cell), two triangles per
+    /// quad facing up, with smooth vertex normals.
+    pub fn grid(
+        &mut self,
+        m: usize,
+        [x0, z0]: [f32; 2],
+        cell: f32,
+        [nx, nz]: [usize; 2],
+        heights: &[f32],
+    ) {
+        let h = |i: usize, j: usize| heights[i.min(nx - 1) + nx * j.min(nz - 1)];
+        let base = self.parts[m].positions.len() as u32;
+        for j in 0..nz {
+            for i in 0..nx {
+                let dx = h(i + 1, j) - h(i.saturating_sub(1), j);
+                let dz = h(i, j + 1) - h(i, j.saturating_sub(1));
+                let normal = Vec3::new(-dx, 2.0 * cell, -dz);
+                let p = Vec3::new(x0 + i as f32 * cell, h(i, j), z0 + j as f32 * cell);
+                let uv = Vec2::new(i as f32 / (nx - 1) as f32, j as f32 / (nz - 1) as f32);
+                self.vertex(m, p, normal, uv);
+            }
+        }
+        for j in 0..nz - 1 {
+            for i in 0..nx - 1 {
+                let v = |a: usize, b: usize| base + (a + nx * b) as u32;
+                // Counter-clockwise seen from above (+y): x east, z south.
+                self.triangle(m, v(i, j), v(i, j + 1), v(i + 1, j));
+                self.triangle(m, v(i + 1, j), v(i, j + 1), v(i + 1, j + 1));
+            }
+        }
+    }
+
     /// A single-sided card: `centre` +- `u` / 2 +- `v` / 2, UVs spanning the texture.
     pub fn card(&mut self, m: usize, centre: Vec3, u: Vec3, v: Vec3) {
         let n = u.cross(v);

@@ -2,6 +2,7 @@
 //! `make fixtures` writes under `fixtures/`; a test checks the committed files still match it.
 
 pub mod builder;
+pub mod terrain;
 pub mod trees;
 
 use std::path::Path;
@@ -56,6 +57,12 @@ pub fn fixture_files() -> Vec<(String, Vec<u8>)> {
     files.push((
         "trees/bare.glb".to_string(),
         builder::glb(&bare.doc, &bare.bin),
+    ));
+    // The demo's terrain: a mountain 1 km across, 129 x 129 vertices (7.8 m cells).
+    let mountain = terrain::mountain(1000.0, 129, 5).to_gltf(None, GENERATOR);
+    files.push((
+        "terrain/mountain.glb".to_string(),
+        builder::glb(&mountain.doc, &mountain.bin),
     ));
     files
 }

@@ -1,0 +1,387 @@
+//! `.instances` v1: a placed forest (see `formats/instances.md`, which this module mirrors).
+
+use bincode::{Decode, Encode};
+
+use super::container::{self, ContainerError, header_config};
+use crate::place::Instance;
+use crate::species::{Seasons, Traits};
+use crate::volume::SourceFile;
+
+pub const MAGIC: &[u8; 8] = b"\x89TXINST\n";
+pub const MAJOR: u16 = 1;
+pub const MINOR: u16 = 0;
+
+/// Position quantum: one centimetre.
+pub const QUANTUM: f64 = 0.01;
+/// Bytes of one instance before compression (x, z, y: 4 each; species 1; rotation, scale,
+/// variation: 2 each).
+pub const RAW_BYTES_PER_INSTANCE: usize = 19;
+/// Most instances a reader accepts (2 GiB of payload / 19 bytes is about 113 million).
+const MAX_COUNT: u64 = (container::MAX_PAYLOAD) / RAW_BYTES_PER_INSTANCE as u64;
+
+/// A species as the renderer needs it.
+#[derive(Clone, Debug, PartialEq, Encode, Decode, serde::Serialize)]
+pub struct SpeciesRecord {
+    pub name: String,
+    /// The texture, relative to the directory of the `.instances` file.
+    pub texel: String,
+    #[serde(serialize_with = "crate::formats::hex32")]
+    pub texel_sha256: [u8; 32],
+    /// A leafless texture for winter, relative to the `.instances` file, and its hash.
+    pub leafless_texel: Option<String>,
+    #[serde(skip)]
+    pub leafless_sha256: Option<[u8; 32]>,
+    /// Height of the texel's model, in its own units (the scale's denominator).
+    pub model_height: f64,
+    /// Disc radius (m) a tree of the reference height keeps free; scales with height.
+    pub spacing: f64,
+    /// Tree height range (m); the reference height is their mean.
+    pub height_min: f64,
+    pub height_max: f64,
+    pub traits: Traits,
+    pub seasons: Seasons,
+}
+
+impl SpeciesRecord {
+    /// Radius (m) of the disc a tree of this species at `scale` keeps free.
+    pub fn radius(&self, scale: f64) -> f64 {
+        self.spacing * scale * self.model_height / (0.5 * (self.height_min + self.height_max))
+    }
+}
+
+/// Everything about a forest but its trees.
+#[derive(Clone, Debug, PartialEq, Encode, Decode)]
+pub struct ForestInfo {
+    pub generator: String,
+    /// The terrain glTF first, then its buffers and images; paths relative to the
+    /// `.instances` file. A renderer compares the terrain's hash to detect a stale forest.
+    pub terrain: Vec<SourceFile>,
+    pub species_file: SourceFile,
+    pub seed: u64,
+    /// x0, z0, x1, z1 (m): the ground placed on.
+    pub region: [f64; 4],
+    /// Cell (m) of the height raster the habitat was judged on.
+    pub raster_cell: f64,
+    /// `--max-count`, or `u64::MAX`.
+    pub max_count: u64,
+    /// Whether `max_count` stopped placement before the ground was full.
+    pub truncated: bool,
+    /// Bounds of the terrain surface (m).
+    pub terrain_min: [f64; 3],
+    pub terrain_max: [f64; 3],
+    /// Quantisation origin: position = origin + 0.01 x stored integer (m).
+    pub origin: [f64; 3],
+    pub species: Vec<SpeciesRecord>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Forest {
+    pub info: ForestInfo,
+    pub instances: Vec<Instance>,
+}
+
+#[derive(Encode, Decode)]
+struct Header {
+    info: ForestInfo,
+    count: u64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum InstancesError {
+    #[error(transparent)]
+    Container(#[from] ContainerError),
+    #[error("corrupt header: {0}")]
+    Header(String),
+}
+
+fn zigzag(d: i32) -> u32 {
+    ((d << 1) ^ (d >> 31)) as u32
+}
+
+fn unzigzag(v: u32) -> i32 {
+    ((v >> 1) as i32) ^ -((v & 1) as i32)
+}
+
+/// `v` as `width` byte planes appended to `out`: all first bytes, then all second bytes...
+fn push_planes(out: &mut Vec<u8>, values: &[u32], width: usize) {
+    for b in 0..width {
+        out.extend(values.iter().map(|v| (v >> (8 * b)) as u8));
+    }
+}
+
+fn read_planes(bytes: &[u8], n: usize, width: usize) -> Vec<u32> {
+    (0..n)
+        .map(|i| (0..width).fold(0u32, |v, b| v | (bytes[b * n + i] as u32) << (8 * b)))
+        .collect()
+}
+
+/// Scale as a u16 on a log scale: 2^((v - 32768) / 2048), 0.034% steps from 2^-16 to 2^16.
+pub fn encode_scale(scale: f32) -> u16 {
+    ((scale as f64).log2() * 2048.0 + 32768.0)
+        .round()
+        .clamp(0.0, 65535.0) as u16
+}
+
+pub fn decode_scale(v: u16) -> f32 {
+    ((v as f64 - 32768.0) / 2048.0).exp2() as f32
+}
+
+/// Rotation in [0, 2 pi) as a u16 of 1/65536 turns.
+pub fn encode_rotation(r: f32) -> u16 {
+    ((r as f64 / std::f64::consts::TAU).rem_euclid(1.0) * 65536.0).round() as u32 as u16
+}
+
+pub fn decode_rotation(v: u16) -> f32 {
+    (v as f64 / 65536.0 * std::f64::consts::TAU) as f32
+}
+
+/// Quantises a position component to centimetres from `origin`.
+fn quantise(v: f64, origin: f64) -> i32 {
+    ((v - origin) / QUANTUM)
+        .round()
+        .clamp(i32::MIN as f64, i32::MAX as f64) as i32
+}
+
+pub fn encode(forest: &Forest) -> Vec<u8> {
+    let n = forest.instances.len();
+    let header = Header {
+        info: forest.info.clone(),
+        count: n as u64,
+    };
+    let header = bincode::encode_to_vec(&header, header_config()).expect("header fits the limit");
+    let o = forest.info.origin;
+    let mut payload = Vec::with_capacity(n * RAW_BYTES_PER_INSTANCE);
+    for (axis, origin) in [(0, o[0]), (2, o[2]), (1, o[1])] {
+        let mut previous = 0i32;
+        let deltas: Vec<u32> = forest
+            .instances
+            .iter()
+            .map(|p| {
+                let q = quantise(p.position[axis], origin);
+                let d = zigzag(q.wrapping_sub(previous));
+                previous = q;
+                d
+            })
+            .collect();
+        push_planes(&mut payload, &deltas, 4);
+    }
+    payload.extend(forest.instances.iter().map(|p| p.species));
+    let column = |f: &dyn Fn(&Instance) -> u16| {
+        forest
+            .instances
+            .iter()
+            .map(|p| f(p) as u32)
+            .collect::<Vec<u32>>()
+    };
+    push_planes(&mut payload, &column(&|p| encode_rotation(p.rotation)), 2);
+    push_planes(&mut payload, &column(&|p| encode_scale(p.scale)), 2);
+    push_planes(&mut payload, &column(&|p| p.variation), 2);
+    container::write(MAGIC, MAJOR, MINOR, &header, &payload)
+}
+
+pub fn decode(bytes: &[u8]) -> Result<Forest, InstancesError> {
+    let c = container::read(bytes, MAGIC, "instances", MAJOR)?;
+    let bad = |m: String| InstancesError::Header(m);
+    let (header, used): (Header, usize) =
+        bincode::decode_from_slice(&c.header, header_config()).map_err(|e| bad(e.to_string()))?;
+    if used != c.header.len() {
+        return Err(bad(format!(
+            "{} bytes after the header",
+            c.header.len() - used
+        )));
+    }
+    let info = header.info;
+    validate(&info)?;
+    if header.count > MAX_COUNT || header.count as usize * RAW_BYTES_PER_INSTANCE != c.payload.len()
+    {
+        return Err(bad(format!(
+            "{} instances need {} payload bytes, the file has {}",
+            header.count,
+            header.count.saturating_mul(RAW_BYTES_PER_INSTANCE as u64),
+            c.payload.len()
+        )));
+    }
+    let n = header.count as usize;
+    let mut at = 0;
+    let mut take = |len: usize| {
+        let s = &c.payload[at..at + len];
+        at += len;
+        s
+    };
+    let mut coords = [vec![], vec![], vec![]];
+    for axis in [0, 2, 1] {
+        let mut value = 0i32;
+        coords[axis] = read_planes(take(4 * n), n, 4)
+            .into_iter()
+            .map(|d| {
+                value = value.wrapping_add(unzigzag(d));
+                info.origin[axis] + value as f64 * QUANTUM
+            })
+            .collect();
+    }
+    let species = take(n).to_vec();
+    if let Some(&s) = species.iter().find(|&&s| s as usize >= info.species.len()) {
+        return Err(bad(format!(
+            "an instance names species {s} of {}",
+            info.species.len()
+        )));
+    }
+    let rotation = read_planes(take(2 * n), n, 2);
+    let scale = read_planes(take(2 * n), n, 2);
+    let variation = read_planes(take(2 * n), n, 2);
+    let instances = (0..n)
+        .map(|i| Instance {
+            species: species[i],
+            position: [coords[0][i], coords[1][i], coords[2][i]],
+            rotation: decode_rotation(rotation[i] as u16),
+            scale: decode_scale(scale[i] as u16),
+            variation: variation[i] as u16,
+        })
+        .collect();
+    Ok(Forest { info, instances })
+}
+
+fn validate(info: &ForestInfo) -> Result<(), InstancesError> {
+    let bad = |m: String| Err(InstancesError::Header(m));
+    let finite = |v: &[f64]| v.iter().all(|c| c.is_finite());
+    if !(finite(&info.region)
+        && finite(&info.terrain_min)
+        && finite(&info.terrain_max)
+        && finite(&info.origin))
+    {
+        return bad("bounds are not finite".into());
+    }
+    if info.species.is_empty() || info.species.len() > 255 {
+        return bad(format!("{} species (1 to 255 allowed)", info.species.len()));
+    }
+    for s in &info.species {
+        if !(s.model_height > 0.0
+            && s.spacing > 0.0
+            && s.height_min > 0.0
+            && s.height_min <= s.height_max)
+        {
+            return bad(format!("species {:?} has a non-positive size", s.name));
+        }
+        if s.seasons.foliage.is_empty() || s.seasons.leaf_fraction.is_empty() {
+            return bad(format!("species {:?} has an empty seasonal series", s.name));
+        }
+    }
+    if info.terrain.is_empty() {
+        return bad("no terrain source".into());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::species::SpeciesFile;
+
+    pub(crate) fn sample_forest(n: usize) -> Forest {
+        let species = SpeciesFile::parse(crate::species::tests::MINIMAL.as_bytes())
+            .unwrap()
+            .species;
+        let s = &species[0];
+        let record = SpeciesRecord {
+            name: s.name.clone(),
+            texel: "trees/beech.texel".into(),
+            texel_sha256: [3; 32],
+            leafless_texel: Some("trees/bare.texel".into()),
+            leafless_sha256: Some([4; 32]),
+            model_height: 12.5,
+            spacing: s.spacing,
+            height_min: s.height.min,
+            height_max: s.height.max,
+            traits: s.traits,
+            seasons: s.seasons.clone(),
+        };
+        let source = |p: &str| SourceFile {
+            path: p.into(),
+            sha256: [1; 32],
+            bytes: 10,
+        };
+        let origin = [29_000.0, 200.0, -31_000.0];
+        let instances = (0..n)
+            .map(|i| Instance {
+                species: 0,
+                position: [
+                    origin[0] + i as f64 * 3.17,
+                    origin[1] + (i % 7) as f64 * 0.5,
+                    origin[2] + (i % 13) as f64 * 2.01,
+                ],
+                rotation: decode_rotation((i * 977) as u16),
+                scale: decode_scale(30_000 + i as u16),
+                variation: (i * 31) as u16,
+            })
+            .collect();
+        Forest {
+            info: ForestInfo {
+                generator: "test".into(),
+                terrain: vec![source("terrain.glb")],
+                species_file: source("species.json"),
+                seed: 7,
+                region: [origin[0], origin[2], origin[0] + 1e4, origin[2] + 1e4],
+                raster_cell: 10.0,
+                max_count: u64::MAX,
+                truncated: false,
+                terrain_min: [0.0; 3],
+                terrain_max: [1.0; 3],
+                origin,
+                species: vec![record],
+            },
+            instances,
+        }
+    }
+
+    #[test]
+    fn round_trip_keeps_centimetres_far_from_the_origin() {
+        let f = sample_forest(1000);
+        let back = decode(&encode(&f)).unwrap();
+        assert_eq!(back.info, f.info);
+        for (a, b) in f.instances.iter().zip(&back.instances) {
+            for c in 0..3 {
+                assert!(
+                    (a.position[c] - b.position[c]).abs() <= 0.005 + 1e-9,
+                    "{a:?} {b:?}"
+                );
+            }
+            assert_eq!(
+                (a.species, a.variation, a.rotation, a.scale),
+                (b.species, b.variation, b.rotation, b.scale)
+            );
+        }
+        assert_eq!(encode(&back), encode(&f));
+    }
+
+    #[test]
+    fn scale_and_rotation_codes_are_fine_enough() {
+        for s in [0.01f32, 0.5, 1.0, 3.7, 27.0, 400.0] {
+            assert!(
+                (decode_scale(encode_scale(s)) / s - 1.0).abs() < 2e-4,
+                "{s}"
+            );
+        }
+        assert_eq!(encode_rotation(std::f32::consts::TAU), 0);
+        assert!((decode_rotation(encode_rotation(1.0)) - 1.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn zigzag_round_trips_extremes() {
+        for d in [0, 1, -1, i32::MAX, i32::MIN, 12345, -54321] {
+            assert_eq!(unzigzag(zigzag(d)), d);
+        }
+    }
+
+    #[test]
+    fn corrupt_counts_and_species_are_refused() {
+        let f = sample_forest(10);
+        let bytes = encode(&f);
+        for n in (0..bytes.len()).step_by(5) {
+            assert!(decode(&bytes[..n]).is_err());
+        }
+        let mut wrong = f.clone();
+        wrong.instances[3].species = 9;
+        let e = decode(&encode(&wrong)).unwrap_err().to_string();
+        assert!(e.contains("species 9"), "{e}");
+    }
+}

@@ -1,0 +1,303 @@
+//! What `texel inspect FILE.instances` reports, and its map.
+
+use std::fmt::Write as _;
+
+use image::RgbImage;
+use serde::Serialize;
+
+use crate::formats::instances::Forest;
+use crate::formats::{hex, instances};
+use crate::terrain::{Heightfield, Terrain, hillshade};
+use crate::volume::SourceFile;
+
+/// Map colours of species 0, 1, ... (ColorBrewer "Dark2", then repeating).
+const PALETTE: [[u8; 3]; 8] = [
+    [27, 158, 119],
+    [217, 95, 2],
+    [117, 112, 179],
+    [231, 41, 138],
+    [102, 166, 30],
+    [230, 171, 2],
+    [166, 118, 29],
+    [102, 102, 102],
+];
+
+pub fn colour(species: usize) -> [u8; 3] {
+    PALETTE[species % PALETTE.len()]
+}
+
+#[derive(Serialize, Debug)]
+pub struct ForestSummary {
+    pub format: &'static str,
+    pub generator: String,
+    pub file_bytes: u64,
+    pub raw_bytes: u64,
+    pub bytes_per_tree: f64,
+    pub trees: usize,
+    pub region: [f64; 4],
+    pub hectares: f64,
+    pub seed: u64,
+    pub truncated: bool,
+    pub species: Vec<SpeciesSummary>,
+    /// Smallest distance between two trees (m), and smallest ratio of a distance to the
+    /// larger of the two trees' radii (the placement rule keeps it >= 1).
+    pub min_distance: f64,
+    pub min_distance_ratio: f64,
+    /// Tree heights (m): ten equal bins between the smallest and the largest.
+    pub height_bins: Vec<(f64, f64, usize)>,
+    pub terrain: Vec<SourceFile>,
+    pub species_file: SourceFile,
+}
+
+#[derive(Serialize, Debug)]
+pub struct SpeciesSummary {
+    pub name: String,
+    pub trees: usize,
+    pub per_hectare: f64,
+    pub map_colour: String,
+    pub texel: String,
+    pub height_range: [f64; 2],
+}
+
+/// Tree height (m) of an instance.
+fn height(f: &Forest, p: &crate::place::Instance) -> f64 {
+    p.scale as f64 * f.info.species[p.species as usize].model_height
+}
+
+/// Smallest distance and smallest distance-to-radius ratio over all pairs closer than the
+/// largest radius, found with a background grid of that size.
+fn spacing(f: &Forest) -> (f64, f64) {
+    let radius =
+        |p: &crate::place::Instance| f.info.species[p.species as usize].radius(p.scale as f64);
+    let r_max = f.instances.iter().map(radius).fold(0.0, f64::max).max(1e-6);
+    let mut cells: std::collections::HashMap<(i64, i64), Vec<usize>> =
+        std::collections::HashMap::new();
+    let key = |p: &crate::place::Instance| {
+        (
+            (p.position[0] / r_max).floor() as i64,
+            (p.position[2] / r_max).floor() as i64,
+        )
+    };
+    for (i, p) in f.instances.iter().enumerate() {
+        cells.entry(key(p)).or_default().push(i);
+    }
+    let (mut distance, mut ratio) = (f64::INFINITY, f64::INFINITY);
+    for (i, p) in f.instances.iter().enumerate() {
+        let (cx, cz) = key(p);
+        for dz in -1..=1 {
+            for dx in -1..=1 {
+                for &j in cells
+                    .get(&(cx + dx, cz + dz))
+                    .map(Vec::as_slice)
+                    .unwrap_or_default()
+                {
+                    if j <= i {
+                        continue;
+                    }
+                    let q = &f.instances[j];
+                    let d = (p.position[0] - q.position[0]).hypot(p.position[2] - q.position[2]);
+                    distance = distance.min(d);
+                    ratio = ratio.min(d / radius(p).max(radius(q)));
+                }
+            }
+        }
+    }
+    (distance, ratio)
+}
+
+pub fn summarize(f: &Forest, file_bytes: u64) -> ForestSummary {
+    let n = f.instances.len();
+    let r = f.info.region;
+    let hectares = (r[2] - r[0]) * (r[3] - r[1]) / 1e4;
+    let species = f
+        .info
+        .species
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let mine: Vec<f64> = f
+                .instances
+                .iter()
+                .filter(|p| p.species as usize == i)
+                .map(|p| height(f, p))
+                .collect();
+            SpeciesSummary {
+                name: s.name.clone(),
+                trees: mine.len(),
+                per_hectare: mine.len() as f64 / hectares,
+                map_colour: format!("#{}", hex(&colour(i))),
+                texel: s.texel.clone(),
+                height_range: [
+                    mine.iter().copied().fold(f64::INFINITY, f64::min),
+                    mine.iter().copied().fold(0.0, f64::max),
+                ],
+            }
+        })
+        .collect();
+    let heights: Vec<f64> = f.instances.iter().map(|p| height(f, p)).collect();
+    let (lo, hi) = (
+        heights.iter().copied().fold(f64::INFINITY, f64::min),
+        heights.iter().copied().fold(0.0, f64::max),
+    );
+    let width = ((hi - lo) / 10.0).max(1e-9);
+    let mut bins: Vec<(f64, f64, usize)> = (0..10)
+        .map(|b| (lo + b as f64 * width, lo + (b + 1) as f64 * width, 0))
+        .collect();
+    if n > 0 {
+        for h in &heights {
+            bins[(((h - lo) / width) as usize).min(9)].2 += 1;
+        }
+    } else {
+        bins.clear();
+    }
+    let (min_distance, min_distance_ratio) = spacing(f);
+    ForestSummary {
+        format: "instances 1",
+        generator: f.info.generator.clone(),
+        file_bytes,
+        raw_bytes: (n * instances::RAW_BYTES_PER_INSTANCE) as u64,
+        bytes_per_tree: file_bytes as f64 / n.max(1) as f64,
+        trees: n,
+        region: r,
+        hectares,
+        seed: f.info.seed,
+        truncated: f.info.truncated,
+        species,
+        min_distance,
+        min_distance_ratio,
+        height_bins: bins,
+        terrain: f.info.terrain.clone(),
+        species_file: f.info.species_file.clone(),
+    }
+}
+
+pub fn to_text(s: &ForestSummary) -> String {
+    let mut o = String::new();
+    let _ = writeln!(o, "format        {} (written by {})", s.format, s.generator);
+    let _ = writeln!(
+        o,
+        "size          {} bytes on disk, {:.2} per tree ({} raw)",
+        s.file_bytes, s.bytes_per_tree, s.raw_bytes
+    );
+    let r = s.region;
+    let _ = writeln!(
+        o,
+        "region        x {:.1} .. {:.1}, z {:.1} .. {:.1} m ({:.1} ha), seed {}",
+        r[0], r[2], r[1], r[3], s.hectares, s.seed
+    );
+    let cut = if s.truncated {
+        " (stopped by --max-count)"
+    } else {
+        ""
+    };
+    let _ = writeln!(
+        o,
+        "trees         {}{cut}, {:.1} per hectare",
+        s.trees,
+        s.trees as f64 / s.hectares
+    );
+    let _ = writeln!(
+        o,
+        "species       {:<14} {:>8} {:>9} {:>15}  map      texel",
+        "", "trees", "per ha", "height m"
+    );
+    for sp in &s.species {
+        let _ = writeln!(
+            o,
+            "              {:<14} {:>8} {:>9.1} {:>6.1} .. {:>5.1}  {}  {}",
+            sp.name,
+            sp.trees,
+            sp.per_hectare,
+            sp.height_range[0],
+            sp.height_range[1],
+            sp.map_colour,
+            sp.texel
+        );
+    }
+    let _ = writeln!(
+        o,
+        "spacing       closest pair {:.2} m; closest relative to the larger radius {:.3} (the rule keeps it >= 1)",
+        s.min_distance, s.min_distance_ratio
+    );
+    let most = s.height_bins.iter().map(|b| b.2).max().unwrap_or(1).max(1);
+    let _ = writeln!(o, "heights");
+    for (lo, hi, count) in &s.height_bins {
+        let bar = "#".repeat((40 * count).div_ceil(most));
+        let _ = writeln!(o, "  {lo:>6.1} .. {hi:>5.1} m {count:>8} {bar}");
+    }
+    for (i, t) in s.terrain.iter().enumerate() {
+        let label = if i == 0 { "terrain" } else { "" };
+        let _ = writeln!(
+            o,
+            "{label:<13} {}  {} bytes  sha256 {}",
+            t.path,
+            t.bytes,
+            hex(&t.sha256)
+        );
+    }
+    let sf = &s.species_file;
+    let _ = writeln!(o, "species file  {}  sha256 {}", sf.path, hex(&sf.sha256));
+    o
+}
+
+/// The forest from above over its hillshaded terrain (north up), `long_side` pixels across
+/// the longer side of the region; trees are discs of 0.4 of their spacing radius in their
+/// species' colour. Without a terrain the ground is plain grey.
+pub fn map(f: &Forest, terrain: Option<&Terrain>, long_side: usize) -> RgbImage {
+    let r = f.info.region;
+    let pixel = (r[2] - r[0]).max(r[3] - r[1]) / long_side as f64;
+    let (w, h) = (
+        (((r[2] - r[0]) / pixel).ceil() as usize).max(1),
+        (((r[3] - r[1]) / pixel).ceil() as usize).max(1),
+    );
+    let shade = terrain.map(|t| {
+        hillshade(&Heightfield::sample(
+            t,
+            r[0],
+            r[1],
+            r[0] + w as f64 * pixel,
+            r[1] + h as f64 * pixel,
+            pixel,
+        ))
+    });
+    let mut img = RgbImage::new(w as u32, h as u32);
+    for y in 0..h {
+        for x in 0..w {
+            let s = shade.as_ref().map_or(0.75, |s| s[x + w * y]);
+            let c = if s.is_nan() {
+                [255, 255, 255]
+            } else {
+                [0.80f32, 0.78, 0.70].map(|b| (255.0 * b * (0.3 + 0.7 * s)) as u8)
+            };
+            img.put_pixel(x as u32, y as u32, image::Rgb(c));
+        }
+    }
+    for p in &f.instances {
+        let species = &f.info.species[p.species as usize];
+        let radius = (0.4 * species.radius(p.scale as f64) / pixel).max(0.6);
+        let (cx, cz) = (
+            (p.position[0] - r[0]) / pixel,
+            (p.position[2] - r[1]) / pixel,
+        );
+        let col = colour(p.species as usize);
+        let reach = radius.ceil() as i64;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                let (px, py) = (cx.floor() as i64 + dx, cz.floor() as i64 + dy);
+                if px < 0 || py < 0 || px >= w as i64 || py >= h as i64 {
+                    continue;
+                }
+                let d = ((px as f64 + 0.5 - cx).powi(2) + (py as f64 + 0.5 - cz).powi(2)).sqrt();
+                // Antialiased edge: coverage falls off over one pixel.
+                let a = (radius + 0.5 - d).clamp(0.0, 1.0) as f32 * 0.9;
+                if a > 0.0 {
+                    let px_ = img.get_pixel_mut(px as u32, py as u32);
+                    for c in 0..3 {
+                        px_.0[c] = (px_.0[c] as f32 * (1.0 - a) + col[c] as f32 * a) as u8;
+                    }
+                }
+            }
+        }
+    }
+    img
+}

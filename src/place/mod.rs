@@ -1,0 +1,286 @@
+//! `place`: which tree grows where (the paper's section 4).
+//!
+//! The passes: resample the terrain into a height raster over the region, derive its
+//! attributes, turn them into a suitability map per species, throw darts (maximal Poisson-disk
+//! sampling, radius by species and size, species chosen by suitability), then give every tree
+//! its exact ground height, a rotation, a scale and a variation seed, and order the trees along
+//! a Z-order curve so neighbours in the file are neighbours on the ground.
+
+pub mod poisson;
+
+use rayon::prelude::*;
+
+use crate::formats::instances::QUANTUM;
+use crate::rng;
+use crate::species::SpeciesFile;
+use crate::terrain::{Attributes, Heightfield, Terrain};
+
+/// Largest height raster accepted (cells); pass a coarser `--cell` beyond it.
+const MAX_RASTER_CELLS: usize = 25_000_000;
+const SPECIES_DRAW: u64 = 0x7370_6563;
+const HEIGHT_DRAW: u64 = 0x6865_6967;
+const ROTATION_DRAW: u64 = 0x726f_7461;
+const VARIATION_DRAW: u64 = 0x7661_7269;
+
+#[derive(Clone, Debug)]
+pub struct PlaceSettings {
+    pub seed: u64,
+    pub max_count: usize,
+    /// x0, z0, x1, z1 in world metres; `None` = the whole terrain.
+    pub region: Option<[f64; 4]>,
+    /// Raster cell (m); `None` = the mesh's own resolution.
+    pub cell: Option<f64>,
+}
+
+impl Default for PlaceSettings {
+    fn default() -> Self {
+        PlaceSettings {
+            seed: 1,
+            max_count: usize::MAX,
+            region: None,
+            cell: None,
+        }
+    }
+}
+
+/// One tree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into the species table.
+    pub species: u8,
+    /// World position of the base of the trunk (metres); y is on the terrain.
+    pub position: [f64; 3],
+    /// Rotation about +Y, radians in [0, 2 pi).
+    pub rotation: f32,
+    /// Factor from the texel model's units to the tree's size.
+    pub scale: f32,
+    /// Free for renderers: per-tree variation of colour and the like.
+    pub variation: u16,
+}
+
+/// The result of placement, with what was derived on the way (for pictures and reports).
+pub struct Forest {
+    pub region: [f64; 4],
+    pub raster: Heightfield,
+    pub attributes: Attributes,
+    /// Per species, suitability on the raster.
+    pub suitability: Vec<Vec<f32>>,
+    pub instances: Vec<Instance>,
+    /// Whether `max_count` cut placement short.
+    pub truncated: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlaceError {
+    #[error("{0}")]
+    Settings(String),
+    #[error(transparent)]
+    Sampling(#[from] poisson::PoissonError),
+}
+
+/// The terrain's ground rectangle, or the part of it `region` asks for.
+pub fn region_of(terrain: &Terrain, region: Option<[f64; 4]>) -> Result<[f64; 4], PlaceError> {
+    let (lo, hi) = (terrain.lo, terrain.hi);
+    let Some([x0, z0, x1, z1]) = region else {
+        return Ok([lo.x, lo.z, hi.x, hi.z]);
+    };
+    if ![x0, z0, x1, z1].iter().all(|v| v.is_finite()) || x0 >= x1 || z0 >= z1 {
+        return Err(PlaceError::Settings(format!(
+            "--region {x0},{z0},{x1},{z1}: needs x0 < x1 and z0 < z1"
+        )));
+    }
+    let clipped = [x0.max(lo.x), z0.max(lo.z), x1.min(hi.x), z1.min(hi.z)];
+    if clipped[0] >= clipped[2] || clipped[1] >= clipped[3] {
+        return Err(PlaceError::Settings(format!(
+            "--region {x0},{z0},{x1},{z1} lies outside the terrain (x {:.1} to {:.1}, z {:.1} to {:.1})",
+            lo.x, hi.x, lo.z, hi.z
+        )));
+    }
+    Ok(clipped)
+}
+
+/// Places trees of `species` (whose texel models are `model_heights` tall, in model units) on
+/// `terrain`.
+pub fn place(
+    terrain: &Terrain,
+    species: &SpeciesFile,
+    model_heights: &[f64],
+    settings: &PlaceSettings,
+) -> Result<Forest, PlaceError> {
+    let region = region_of(terrain, settings.region)?;
+    let cell = settings.cell.unwrap_or_else(|| terrain.natural_cell());
+    if !(cell.is_finite() && cell > 0.0) {
+        return Err(PlaceError::Settings(format!(
+            "--cell {cell} must be a positive number of metres"
+        )));
+    }
+    // The raster reaches a topographic-position radius beyond the region (where there is
+    // terrain), so attributes at the region's edge see their whole neighbourhood.
+    let margin = species.analysis.tpi_radius;
+    let (lo, hi) = (terrain.lo, terrain.hi);
+    let extent = [
+        (region[0] - margin).max(lo.x),
+        (region[1] - margin).max(lo.z),
+        (region[2] + margin).min(hi.x),
+        (region[3] + margin).min(hi.z),
+    ];
+    let cells = ((extent[2] - extent[0]) / cell).ceil() * ((extent[3] - extent[1]) / cell).ceil();
+    if cells > MAX_RASTER_CELLS as f64 {
+        return Err(PlaceError::Settings(format!(
+            "a raster of {cell} m cells over the region has {cells:.0} cells (at most {MAX_RASTER_CELLS}); give a larger --cell"
+        )));
+    }
+    let raster = Heightfield::sample(terrain, extent[0], extent[1], extent[2], extent[3], cell);
+    let attributes = Attributes::compute(&raster, species.analysis.tpi_radius);
+    let suitability: Vec<Vec<f32>> = species
+        .species
+        .iter()
+        .map(|s| {
+            (0..raster.height.len())
+                .into_par_iter()
+                .map(|k| {
+                    let a = [0, 1, 2, 3, 4].map(|n| attributes.get(&raster, n)[k] as f64);
+                    s.habitat.suitability(a) as f32
+                })
+                .collect()
+        })
+        .collect();
+
+    let min_suitability = species.analysis.min_suitability.max(1e-6);
+    let (r_min, r_max) = species
+        .species
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), s| {
+            (
+                a.min(stored_radius_guard(s.radius(s.height.min))),
+                b.max(stored_radius_guard(s.radius(s.height.max))),
+            )
+        });
+    // Bilinear suitability is a blend of four raster nodes, so a point can suit a species only
+    // next to a node that does: darts and the gap scan skip ground with no such node about.
+    let habitable: Vec<bool> = (0..raster.height.len())
+        .map(|k| suitability.iter().any(|s| s[k] >= min_suitability as f32))
+        .collect();
+    let may_take = |[a, b, c, d]: [f64; 4]| {
+        let node = |v: f64, o: f64, n: usize| {
+            ((v - o) / raster.cell - 0.5).clamp(0.0, (n - 1) as f64) as usize
+        };
+        let (i0, i1) = (
+            node(a, raster.x0, raster.nx),
+            (node(c, raster.x0, raster.nx) + 1).min(raster.nx - 1),
+        );
+        let (j0, j1) = (
+            node(b, raster.z0, raster.nz),
+            (node(d, raster.z0, raster.nz) + 1).min(raster.nz - 1),
+        );
+        (j0..=j1).any(|j| (i0..=i1).any(|i| habitable[i + raster.nx * j]))
+    };
+    let n_species = species.species.len();
+    let propose = |x: f64, z: f64, key: u64| -> Option<(f64, (u8, f64, u64))> {
+        let (cells, bilinear) = raster.bilinear(x, z);
+        if !cells.iter().any(|&c| habitable[c]) {
+            return None;
+        }
+        let weight = |i: usize| {
+            let s: f64 = (0..4)
+                .map(|k| (suitability[i][cells[k]] * bilinear[k]) as f64)
+                .sum();
+            if s >= min_suitability { s } else { 0.0 }
+        };
+        let mut weights = [0.0f64; 256];
+        for (i, w) in weights[..n_species].iter_mut().enumerate() {
+            *w = weight(i);
+        }
+        let total: f64 = weights[..n_species].iter().sum();
+        if total <= 0.0 {
+            return None;
+        }
+        // Species in proportion to suitability, so stands mix where habitats overlap.
+        let mut u = rng::unit(rng::hash3(key, SPECIES_DRAW, 0)) * total;
+        let mut chosen = n_species - 1;
+        for (i, &w) in weights[..n_species].iter().enumerate() {
+            if u < w {
+                chosen = i;
+                break;
+            }
+            u -= w;
+        }
+        let s = &species.species[chosen];
+        let height = s.height.min
+            + (s.height.max - s.height.min) * rng::unit(rng::hash3(key, HEIGHT_DRAW, 0));
+        Some((
+            stored_radius_guard(s.radius(height)),
+            (chosen as u8, height, key),
+        ))
+    };
+    let samples = poisson::sample(
+        region,
+        r_min,
+        r_max,
+        settings.seed,
+        settings.max_count,
+        may_take,
+        propose,
+    )?;
+    let truncated = samples.len() >= settings.max_count;
+
+    let mut instances: Vec<Instance> = samples
+        .par_iter()
+        .filter_map(|(disc, (species_index, height, key))| {
+            let y = terrain.height_at(disc.x, disc.z)?;
+            Some(Instance {
+                species: *species_index,
+                position: [disc.x, y, disc.z],
+                rotation: (rng::unit(rng::hash3(*key, ROTATION_DRAW, 0)) * std::f64::consts::TAU)
+                    as f32,
+                scale: (height / model_heights[*species_index as usize]) as f32,
+                variation: (rng::hash3(*key, VARIATION_DRAW, 0) >> 48) as u16,
+            })
+        })
+        .collect();
+    let morton_key = |p: &Instance| {
+        let q = |v: f64, o: f64| (((v - o) * 100.0).round().max(0.0) as u64).min(u32::MAX as u64);
+        morton(q(p.position[0], region[0]), q(p.position[2], region[1]))
+    };
+    instances.sort_by_cached_key(morton_key);
+    Ok(Forest {
+        region,
+        raster,
+        attributes,
+        suitability,
+        instances,
+        truncated,
+    })
+}
+
+/// The radius the sampler keeps, a little larger than the tree's: positions are stored to the
+/// centimetre and scales in steps of 2^(1/2048), and the trees as stored must keep the spacing
+/// rule, not only the trees as placed.
+fn stored_radius_guard(r: f64) -> f64 {
+    r * (2f64.powf(1.0 / 2048.0)) + QUANTUM * std::f64::consts::SQRT_2
+}
+
+/// Interleaves the bits of two 32-bit coordinates (x in the even bits).
+pub fn morton(x: u64, z: u64) -> u64 {
+    fn spread(mut v: u64) -> u64 {
+        v &= 0xffff_ffff;
+        v = (v | (v << 16)) & 0x0000_ffff_0000_ffff;
+        v = (v | (v << 8)) & 0x00ff_00ff_00ff_00ff;
+        v = (v | (v << 4)) & 0x0f0f_0f0f_0f0f_0f0f;
+        v = (v | (v << 2)) & 0x3333_3333_3333_3333;
+        (v | (v << 1)) & 0x5555_5555_5555_5555
+    }
+    spread(x) | (spread(z) << 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_interleaves() {
+        assert_eq!(morton(0b11, 0b00), 0b0101);
+        assert_eq!(morton(0b00, 0b11), 0b1010);
+        assert_eq!(morton(u32::MAX as u64, u32::MAX as u64), u64::MAX);
+    }
+}

@@ -1,0 +1,79 @@
+//! Terrain: a triangulated glTF surface, resampled into a height raster whose attributes
+//! (slope, aspect, topographic position, wetness) decide where which tree grows.
+
+mod attributes;
+mod raster;
+
+pub use attributes::{Attributes, TERRAIN_ATTRIBUTES, hillshade};
+pub use raster::Heightfield;
+
+use std::path::Path;
+
+use glam::{DVec3, Vec3};
+
+use crate::geom::{Ray, TriangleBvh};
+use crate::import::{self, ImportError, Model};
+
+/// A terrain surface with exact height queries.
+pub struct Terrain {
+    pub model: Model,
+    triangles: TriangleBvh,
+    /// Bounds of the surface, metres.
+    pub lo: DVec3,
+    pub hi: DVec3,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum TerrainError {
+    #[error(transparent)]
+    Import(#[from] ImportError),
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl Terrain {
+    pub fn load(path: &Path) -> Result<Terrain, TerrainError> {
+        let model = import::load(path)?;
+        Ok(Terrain::from_model(model))
+    }
+
+    pub fn from_model(model: Model) -> Terrain {
+        let mesh = &model.mesh;
+        let corners: Vec<[Vec3; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|t| t.vertices.map(|v| mesh.positions[v as usize]))
+            .collect();
+        let triangles = TriangleBvh::new(corners);
+        let b = triangles.bounds();
+        Terrain {
+            model,
+            triangles,
+            lo: b.lo.as_dvec3(),
+            hi: b.hi.as_dvec3(),
+        }
+    }
+
+    /// Height of the highest surface above (x, z), if any: a ray cast straight down.
+    pub fn height_at(&self, x: f64, z: f64) -> Option<f64> {
+        if x < self.lo.x || x > self.hi.x || z < self.lo.z || z > self.hi.z {
+            return None;
+        }
+        let top = self.hi.y + 1.0;
+        let ray = Ray {
+            origin: Vec3::new(x as f32, top as f32, z as f32),
+            dir: Vec3::NEG_Y,
+        };
+        let (_, hit) = self
+            .triangles
+            .nearest(&ray, 0.0, f32::INFINITY, |_, _| true)?;
+        Some(top - hit.t as f64)
+    }
+
+    /// The cell size matching the mesh's own resolution: the side of a square cell that a
+    /// regular grid of the same number of triangles over the same ground would have.
+    pub fn natural_cell(&self) -> f64 {
+        let area = (self.hi.x - self.lo.x) * (self.hi.z - self.lo.z);
+        (area / (self.triangles.len().max(1) as f64 / 2.0)).sqrt()
+    }
+}
