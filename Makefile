@@ -13,14 +13,16 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
 .PHONY: demo test bench accuracy fixtures clean FORCE
 .DELETE_ON_ERROR:
 
-demo: $(TEXELS) $(VIEWS)
-	@echo "demo: outputs under $(OUT)/trees/ (texel files, summaries, pictures)"
+FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png
+
+demo: $(TEXELS) $(VIEWS) $(FOREST)
+	@echo "demo: outputs under $(OUT)/ (trees/: texels, summaries, pictures; forest.*: the placed forest and its map)"
 
 test:
 	$(CARGO) test --release
 
 bench:
-	$(CARGO) bench --bench bake
+	$(CARGO) bench --bench bake --bench place
 
 accuracy:
 	$(CARGO) run --release --example accuracy -- --anisotropy
@@ -52,4 +54,18 @@ $(OUT)/trees/%-projection-y.png: $(OUT)/trees/%.texel
 $(OUT)/trees/%-slice-y10.png: $(OUT)/trees/%.texel
 	$(TEXEL) inspect $< --slice y=10 -o $@
 
--include $(TEXELS:%=%.d)
+# The species file names its texels relative to itself: it lives beside out/trees/.
+$(OUT)/species.json: fixtures/species/forest.json
+	@mkdir -p $(OUT)
+	cp $< $@
+
+$(OUT)/forest.instances: fixtures/terrain/mountain.glb $(OUT)/species.json $(TEXELS) $(TEXEL)
+	$(TEXEL) place $< --species $(OUT)/species.json -o $@ --seed 1 --depfile $@.d
+$(OUT)/forest.txt: $(OUT)/forest.instances
+	$(TEXEL) inspect $< > $@
+$(OUT)/forest.json: $(OUT)/forest.instances
+	$(TEXEL) inspect $< --json > $@
+$(OUT)/forest-map.png: $(OUT)/forest.instances
+	$(TEXEL) inspect $< --map -o $@
+
+-include $(TEXELS:%=%.d) $(OUT)/forest.instances.d

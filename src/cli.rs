@@ -94,7 +94,7 @@ pub struct PlaceArgs {
     #[arg(long, value_name = "N")]
     pub max_count: Option<usize>,
     /// Place only within this rectangle of the ground plane (metres).
-    #[arg(long, value_name = "X0,Z0,X1,Z1")]
+    #[arg(long, value_name = "X0,Z0,X1,Z1", allow_hyphen_values = true)]
     pub region: Option<String>,
     /// Cell of the height raster habitat is judged on (metres; default: the mesh's own
     /// resolution).

@@ -5,7 +5,7 @@ mod common;
 
 use proptest::prelude::*;
 use texel_forest::bake::{self, BakeSettings};
-use texel_forest::formats::texel;
+use texel_forest::formats::{instances, texel};
 use texel_forest::import;
 
 fn valid_file() -> Vec<u8> {
@@ -105,4 +105,83 @@ fn golden_texel_decodes_and_is_reproduced() {
 /// The golden bytes, as `make fixtures` writes them (sources recorded by name only).
 fn golden_bytes() -> Vec<u8> {
     texel_forest::procedural::golden_texel(&common::fixture("trees/conifer.glb")).unwrap()
+}
+
+/// A small valid `.instances` file.
+fn valid_forest_file() -> Vec<u8> {
+    use texel_forest::formats::instances::{Forest, ForestInfo, SpeciesRecord};
+    use texel_forest::place::Instance;
+    use texel_forest::species::SpeciesFile;
+    use texel_forest::volume::SourceFile;
+    let species = SpeciesFile::load(&common::fixture("species/forest.json")).unwrap();
+    let s = &species.species[0];
+    let source = SourceFile {
+        path: "t.glb".into(),
+        sha256: [5; 32],
+        bytes: 1,
+    };
+    let info = ForestInfo {
+        generator: "test".into(),
+        terrain: vec![source.clone()],
+        species_file: source,
+        seed: 1,
+        region: [0.0, 0.0, 100.0, 100.0],
+        raster_cell: 5.0,
+        max_count: u64::MAX,
+        truncated: false,
+        terrain_min: [0.0; 3],
+        terrain_max: [100.0; 3],
+        origin: [0.0; 3],
+        species: vec![SpeciesRecord {
+            name: s.name.clone(),
+            texel: "a.texel".into(),
+            texel_sha256: [1; 32],
+            leafless_texel: None,
+            leafless_sha256: None,
+            model_height: 10.0,
+            spacing: s.spacing,
+            height_min: s.height.min,
+            height_max: s.height.max,
+            traits: s.traits,
+            seasons: s.seasons.clone(),
+        }],
+    };
+    let instances = (0..200)
+        .map(|i| Instance {
+            species: 0,
+            position: [(i % 20) as f64 * 5.0, 50.0, (i / 20) as f64 * 5.0],
+            rotation: i as f32 * 0.1,
+            scale: 1.5,
+            variation: i as u16,
+        })
+        .collect();
+    instances::encode(&Forest { info, instances })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    #[test]
+    fn instances_random_bytes_after_the_magic_are_refused(bytes in proptest::collection::vec(any::<u8>(), 0..2048)) {
+        let mut b = instances::MAGIC.to_vec();
+        b.extend_from_slice(&bytes);
+        prop_assert!(instances::decode(&b).is_err());
+    }
+
+    #[test]
+    fn instances_corrupted_files_are_refused(at in any::<prop::sample::Index>(), flip in 1u8..=255) {
+        let mut bytes = valid_forest_file();
+        let i = at.index(bytes.len());
+        bytes[i] ^= flip;
+        prop_assert!(instances::decode(&bytes).is_err());
+    }
+}
+
+#[test]
+fn instances_truncations_are_refused() {
+    let bytes = valid_forest_file();
+    assert_eq!(instances::decode(&bytes).unwrap().instances.len(), 200);
+    for n in 0..bytes.len() {
+        assert!(instances::decode(&bytes[..n]).is_err(), "{n}");
+    }
 }

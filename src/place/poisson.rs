@@ -23,7 +23,7 @@ use rayon::prelude::*;
 use crate::rng;
 
 /// Darts an active sample throws before it retires (Bridson's k).
-const ATTEMPTS: u32 = 24;
+const ATTEMPTS: u32 = 20;
 /// Darts the gap-filling scan throws into an empty cell whose centre no disc covers.
 const SCAN_DARTS: u64 = 4;
 /// Active samples a parent is drawn from: the most recent ones.
