@@ -42,9 +42,9 @@ fn report(name: &str, mesh: &Mesh) {
         });
         let baked = baked.expect("ran");
         let encode = median_seconds(3, || {
-            std::hint::black_box(texel::encode(&baked));
+            std::hint::black_box(texel::encode(&baked).expect("encodes"));
         });
-        let bytes = texel::encode(&baked).len();
+        let bytes = texel::encode(&baked).expect("encodes").len();
         println!(
             "{name:<26} {:>8} {:>4} -> {:<3} {:>9.3} {:>9.3} {:>10.1}",
             mesh.triangles.len(),

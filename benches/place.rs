@@ -80,7 +80,7 @@ fn main() {
         instances: forest.instances,
     };
     let start = Instant::now();
-    let bytes = instances::encode(&file);
+    let bytes = instances::encode(&file).expect("encodes");
     let encoding = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let back = instances::decode(&bytes).expect("decodes");

@@ -19,7 +19,7 @@ fn valid_file() -> Vec<u8> {
         },
     )
     .unwrap();
-    texel::encode(&t)
+    texel::encode(&t).unwrap()
 }
 
 proptest! {
@@ -79,7 +79,7 @@ fn absurd_sizes_with_a_valid_checksum_are_refused() {
         .position(|w| w == dims.as_slice())
         .unwrap();
     header[dims_at..dims_at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
-    let forged = container::write(texel::MAGIC, 1, 0, &header, &c.payload);
+    let forged = container::write(texel::MAGIC, 1, 0, &header, &c.payload).unwrap();
     let e = texel::decode(&forged).unwrap_err().to_string();
     assert!(e.contains("corrupt header"), "{e}");
 }
@@ -155,7 +155,7 @@ fn valid_forest_file() -> Vec<u8> {
             variation: i as u16,
         })
         .collect();
-    instances::encode(&Forest { info, instances })
+    instances::encode(&Forest { info, instances }).unwrap()
 }
 
 proptest! {

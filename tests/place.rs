@@ -378,6 +378,26 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
         assert_error(&o, &all);
         assert!(!dir.path().join("bad.instances").exists());
     }
+    let mut tiny = base.clone();
+    tiny["species"][2]["spacing"] = serde_json::json!(0.01);
+    std::fs::write(
+        dir.path().join("tiny.json"),
+        serde_json::to_vec(&tiny).unwrap(),
+    )
+    .unwrap();
+    let terrain = mountain();
+    let o = run(
+        &[
+            "place",
+            terrain.to_str().unwrap(),
+            "--species",
+            "tiny.json",
+            "-o",
+            "tiny.instances",
+        ],
+        dir.path(),
+    );
+    assert_error(&o, &["tree radii range", "spacing"]);
     let o = place_cli(dir.path(), &["--region", "5000,5000,6000,6000"]);
     assert_error(&o, &["--region", "outside the terrain"]);
     let o = place_cli(dir.path(), &["--region", "1,2,3"]);

@@ -53,7 +53,7 @@ pub fn run(args: &BakeArgs, quiet: bool) -> anyhow::Result<()> {
         .collect();
     baked.info.inputs_sha256 = all.finalize().into();
 
-    let bytes = texel::encode(&baked);
+    let bytes = texel::encode(&baked).with_context(|| args.output.display().to_string())?;
     write_atomic(&args.output, &bytes)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     if let Some(dep) = &args.depfile {

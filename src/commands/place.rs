@@ -124,8 +124,8 @@ pub fn run(args: &PlaceArgs, quiet: bool) -> anyhow::Result<()> {
         region,
         cell: args.cell,
     };
-    let forest = place::place(&terrain, &species, &model_heights, &settings)
-        .with_context(|| args.terrain.display().to_string())?;
+    // Placement's errors name the flag or the species setting at fault.
+    let forest = place::place(&terrain, &species, &model_heights, &settings)?;
     if forest.truncated {
         super::warn(&format!(
             "--max-count {} reached: the forest does not fill the region",
@@ -172,7 +172,7 @@ pub fn run(args: &PlaceArgs, quiet: bool) -> anyhow::Result<()> {
         info,
         instances: forest.instances,
     };
-    let bytes = instances::encode(&file);
+    let bytes = instances::encode(&file).with_context(|| args.output.display().to_string())?;
     write_atomic(&args.output, &bytes)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     if let Some(dep) = &args.depfile {

@@ -33,8 +33,8 @@ pub const fn header_config() -> bincode::config::Configuration<
         .with_fixed_int_encoding()
         .with_limit::<MAX_HEADER>()
 }
-/// Largest header accepted (1 MiB).
-pub const MAX_HEADER: usize = 1 << 20;
+/// Largest header accepted (16 MiB: a species table of 255 species with long series fits).
+pub const MAX_HEADER: usize = 16 << 20;
 /// Largest decompressed payload accepted (2 GiB).
 pub const MAX_PAYLOAD: u64 = 2 << 30;
 /// zstd level: a fixed level keeps output bytes reproducible.
@@ -56,6 +56,8 @@ pub enum ContainerError {
     Truncated(String),
     #[error("corrupt: {0}")]
     Corrupt(String),
+    #[error("too large to write: {0}")]
+    TooLarge(String),
 }
 
 /// A parsed container: the format's version, its header bytes and its decompressed payload.
@@ -67,7 +69,26 @@ pub struct Container {
 }
 
 /// Assembles a container around an encoded header and a raw payload.
-pub fn write(magic: &[u8; 8], major: u16, minor: u16, header: &[u8], payload: &[u8]) -> Vec<u8> {
+pub fn write(
+    magic: &[u8; 8],
+    major: u16,
+    minor: u16,
+    header: &[u8],
+    payload: &[u8],
+) -> Result<Vec<u8>, ContainerError> {
+    // What readers would refuse, writers refuse to write.
+    if header.len() > MAX_HEADER {
+        return Err(ContainerError::TooLarge(format!(
+            "a header of {} bytes (at most {MAX_HEADER})",
+            header.len()
+        )));
+    }
+    if payload.len() as u64 > MAX_PAYLOAD {
+        return Err(ContainerError::TooLarge(format!(
+            "a payload of {} bytes (at most {MAX_PAYLOAD})",
+            payload.len()
+        )));
+    }
     let compressed =
         zstd::bulk::compress(payload, ZSTD_LEVEL).expect("in-memory zstd compression cannot fail");
     let mut out = Vec::with_capacity(PREAMBLE + header.len() + compressed.len() + 4);
@@ -81,7 +102,7 @@ pub fn write(magic: &[u8; 8], major: u16, minor: u16, header: &[u8], payload: &[
     out.extend_from_slice(&compressed);
     let crc = crc32fast::hash(&out);
     out.extend_from_slice(&crc.to_le_bytes());
-    out
+    Ok(out)
 }
 
 fn u16_at(b: &[u8], at: usize) -> u16 {
@@ -231,7 +252,7 @@ mod tests {
 
     #[test]
     fn round_trip_and_layout() {
-        let bytes = write(MAGIC, 1, 2, b"head", b"payload payload payload");
+        let bytes = write(MAGIC, 1, 2, b"head", b"payload payload payload").unwrap();
         assert_eq!(&bytes[..8], MAGIC);
         assert_eq!(u16_at(&bytes, 8), 1);
         assert_eq!(u16_at(&bytes, 10), 2);
@@ -247,7 +268,7 @@ mod tests {
 
     #[test]
     fn every_truncation_and_every_flipped_byte_is_an_error() {
-        let bytes = write(MAGIC, 1, 0, b"head", &[7u8; 100]);
+        let bytes = write(MAGIC, 1, 0, b"head", &[7u8; 100]).unwrap();
         for n in 0..bytes.len() {
             assert!(
                 read(&bytes[..n], MAGIC, "test", 1).is_err(),
@@ -263,7 +284,7 @@ mod tests {
 
     #[test]
     fn newer_major_version_is_refused_with_advice() {
-        let bytes = write(MAGIC, 2, 0, b"", b"");
+        let bytes = write(MAGIC, 2, 0, b"", b"").unwrap();
         let e = read(&bytes, MAGIC, "test", 1).unwrap_err();
         assert_eq!(
             e,

@@ -142,13 +142,14 @@ fn quantise(v: f64, origin: f64) -> i32 {
         .clamp(i32::MIN as f64, i32::MAX as f64) as i32
 }
 
-pub fn encode(forest: &Forest) -> Vec<u8> {
+pub fn encode(forest: &Forest) -> Result<Vec<u8>, ContainerError> {
     let n = forest.instances.len();
     let header = Header {
         info: forest.info.clone(),
         count: n as u64,
     };
-    let header = bincode::encode_to_vec(&header, header_config()).expect("header fits the limit");
+    let header = bincode::encode_to_vec(&header, header_config())
+        .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?;
     let o = forest.info.origin;
     let mut payload = Vec::with_capacity(n * RAW_BYTES_PER_INSTANCE);
     for (axis, origin) in [(0, o[0]), (2, o[2]), (1, o[1])] {
@@ -336,7 +337,7 @@ pub(crate) mod tests {
     #[test]
     fn round_trip_keeps_centimetres_far_from_the_origin() {
         let f = sample_forest(1000);
-        let back = decode(&encode(&f)).unwrap();
+        let back = decode(&encode(&f).unwrap()).unwrap();
         assert_eq!(back.info, f.info);
         for (a, b) in f.instances.iter().zip(&back.instances) {
             for c in 0..3 {
@@ -350,7 +351,7 @@ pub(crate) mod tests {
                 (b.species, b.variation, b.rotation, b.scale)
             );
         }
-        assert_eq!(encode(&back), encode(&f));
+        assert_eq!(encode(&back).unwrap(), encode(&f).unwrap());
     }
 
     #[test]
@@ -375,13 +376,13 @@ pub(crate) mod tests {
     #[test]
     fn corrupt_counts_and_species_are_refused() {
         let f = sample_forest(10);
-        let bytes = encode(&f);
+        let bytes = encode(&f).unwrap();
         for n in (0..bytes.len()).step_by(5) {
             assert!(decode(&bytes[..n]).is_err());
         }
         let mut wrong = f.clone();
         wrong.instances[3].species = 9;
-        let e = decode(&encode(&wrong)).unwrap_err().to_string();
+        let e = decode(&encode(&wrong).unwrap()).unwrap_err().to_string();
         assert!(e.contains("species 9"), "{e}");
     }
 }

@@ -104,7 +104,7 @@ fn unorm16(v: f32) -> [u8; 2] {
 }
 
 /// Encodes a texture as `.texel` bytes (deterministic: same texture, same bytes).
-pub fn encode(texel: &Texel) -> Vec<u8> {
+pub fn encode(texel: &Texel) -> Result<Vec<u8>, ContainerError> {
     let info = &texel.info;
     let channels = v1_channels(info.density_model);
     let header = Header {
@@ -130,7 +130,8 @@ pub fn encode(texel: &Texel) -> Vec<u8> {
             .collect(),
         channels,
     };
-    let header = bincode::encode_to_vec(&header, header_config()).expect("header fits the limit");
+    let header = bincode::encode_to_vec(&header, header_config())
+        .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?;
     let mut payload = Vec::new();
     for level in &texel.levels {
         for part in 0..2 {
@@ -409,16 +410,16 @@ pub(crate) mod tests {
     #[test]
     fn round_trip_is_exact() {
         let t = sample_texel(1);
-        let bytes = encode(&t);
+        let bytes = encode(&t).unwrap();
         assert_eq!(decode(&bytes).unwrap(), t);
-        assert_eq!(encode(&decode(&bytes).unwrap()), bytes);
+        assert_eq!(encode(&decode(&bytes).unwrap()).unwrap(), bytes);
     }
 
     /// Pins the header's byte layout against formats/texel.md.
     #[test]
     fn header_layout_matches_the_spec() {
         let t = sample_texel(1);
-        let bytes = encode(&t);
+        let bytes = encode(&t).unwrap();
         let h = &bytes[container::PREAMBLE..];
         // generator: u64 length, then UTF-8
         assert_eq!(&h[..8], &4u64.to_le_bytes());
@@ -459,7 +460,7 @@ pub(crate) mod tests {
         let mut t = sample_texel(2);
         t.levels[1].dims = [3, 2, 1];
         t.levels[1] = Level::empty([3, 2, 1], 0.5);
-        let e = decode(&encode(&t)).unwrap_err();
+        let e = decode(&encode(&t).unwrap()).unwrap_err();
         assert!(e.to_string().contains("not half"), "{e}");
     }
 }

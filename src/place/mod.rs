@@ -15,6 +15,23 @@ use crate::rng;
 use crate::species::SpeciesFile;
 use crate::terrain::{Attributes, Heightfield, Terrain};
 
+/// Largest ratio of the largest tree radius to the smallest: the background grid's cells are
+/// sized by the smallest and its neighbourhood scans by the largest.
+const MAX_RADIUS_RATIO: f64 = 64.0;
+
+/// Smallest and largest disc radius any tree of `species` may have (as the sampler keeps it).
+fn radius_range(species: &SpeciesFile) -> (f64, f64) {
+    species
+        .species
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), s| {
+            (
+                a.min(stored_radius_guard(s.radius(s.height.min))),
+                b.max(stored_radius_guard(s.radius(s.height.max))),
+            )
+        })
+}
+
 /// Largest height raster accepted (cells); pass a coarser `--cell` beyond it.
 const MAX_RASTER_CELLS: usize = 25_000_000;
 const SPECIES_DRAW: u64 = 0x7370_6563;
@@ -108,6 +125,13 @@ pub fn place(
     settings: &PlaceSettings,
 ) -> Result<Forest, PlaceError> {
     let region = region_of(terrain, settings.region)?;
+    let (r_min, r_max) = radius_range(species);
+    if r_max / r_min > MAX_RADIUS_RATIO {
+        return Err(PlaceError::Settings(format!(
+            "tree radii range from {r_min:.2} m to {r_max:.2} m; placement needs the largest within \
+             {MAX_RADIUS_RATIO} times the smallest (check the species' spacing and height)"
+        )));
+    }
     let cell = settings.cell.unwrap_or_else(|| terrain.natural_cell());
     if !(cell.is_finite() && cell > 0.0) {
         return Err(PlaceError::Settings(format!(
@@ -147,15 +171,6 @@ pub fn place(
         .collect();
 
     let min_suitability = species.analysis.min_suitability.max(1e-6);
-    let (r_min, r_max) = species
-        .species
-        .iter()
-        .fold((f64::INFINITY, 0.0f64), |(a, b), s| {
-            (
-                a.min(stored_radius_guard(s.radius(s.height.min))),
-                b.max(stored_radius_guard(s.radius(s.height.max))),
-            )
-        });
     // Bilinear suitability is a blend of four raster nodes, so a point can suit a species only
     // next to a node that does: darts and the gap scan skip ground with no such node about.
     let habitable: Vec<bool> = (0..raster.height.len())

@@ -87,5 +87,5 @@ pub fn golden_texel(conifer_glb: &Path) -> anyhow::Result<Vec<u8>> {
         bytes: bytes.len() as u64,
     }];
     t.info.inputs_sha256 = Sha256::digest(sha256).into();
-    Ok(texel::encode(&t))
+    Ok(texel::encode(&t)?)
 }
