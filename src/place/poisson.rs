@@ -119,9 +119,52 @@ pub fn sample<T: Send>(
     Ok(all)
 }
 
+/// One band's samples as they grow.
+struct Band<T> {
+    grid: Grid,
+    discs: Vec<Disc>,
+    payloads: Vec<T>,
+    /// Darts each sample has thrown.
+    tries: Vec<u32>,
+    /// Samples still throwing darts.
+    active: Vec<u32>,
+}
+
+impl<T> Band<T> {
+    /// Accepts (x, z) if the caller takes it and it breaks no disc, and makes it active. The
+    /// caller is asked only after the cheap test against the existing discs' own radii, which
+    /// most darts fail.
+    fn try_dart(
+        &mut self,
+        x: f64,
+        z: f64,
+        key: u64,
+        propose: &impl Fn(f64, f64, u64) -> Option<(f64, T)>,
+    ) -> bool {
+        let Some(c) = self.grid.cell_of(x, z) else {
+            return false;
+        };
+        if self.grid.cells[c].r != 0.0 || !self.grid.fits(c, x, z, 0.0) {
+            return false;
+        }
+        let Some((r, payload)) = propose(x, z, key) else {
+            return false;
+        };
+        if !self.grid.fits(c, x, z, r) {
+            return false;
+        }
+        self.grid.put(c, x, z, r);
+        self.active.push(self.discs.len() as u32);
+        self.discs.push(Disc { x, z, r });
+        self.payloads.push(payload);
+        self.tries.push(0);
+        true
+    }
+}
+
 /// Samples one band, respecting the discs of samples already made beside it.
 fn sample_band<T>(
-    band: [f64; 4],
+    region: [f64; 4],
     neighbours: &[Disc],
     r_min: f64,
     r_max: f64,
@@ -129,49 +172,35 @@ fn sample_band<T>(
     may_take: &impl Fn([f64; 4]) -> bool,
     propose: &impl Fn(f64, f64, u64) -> Option<(f64, T)>,
 ) -> Vec<(Disc, T)> {
-    let mut grid = Grid::new(band, r_min, r_max);
+    let mut grid = Grid::new(region, r_min, r_max);
     for d in neighbours {
         if let Some(c) = grid.padded_cell_of(d.x, d.z) {
             grid.put(c, d.x, d.z, d.r);
         }
     }
-    let [x0, z0, x1, z1] = band;
-    let mut discs: Vec<Disc> = Vec::new();
-    let mut payloads: Vec<T> = Vec::new();
-    let mut tries: Vec<u32> = Vec::new();
-    let mut active: Vec<u32> = Vec::new();
-    // Accepts (x, z) if the caller takes it and it breaks no disc. The caller is asked only
-    // after the cheap test against the existing discs' own radii, which most darts fail.
-    let try_dart =
-        |grid: &mut Grid, discs: &mut Vec<Disc>, x: f64, z: f64, key: u64| -> Option<T> {
-            let c = grid.cell_of(x, z)?;
-            if grid.cells[c].r != 0.0 || !grid.fits(c, x, z, 0.0) {
-                return None;
-            }
-            let (r, payload) = propose(x, z, key)?;
-            if !grid.fits(c, x, z, r) {
-                return None;
-            }
-            grid.put(c, x, z, r);
-            discs.push(Disc { x, z, r });
-            Some(payload)
-        };
-
+    let [x0, z0, x1, z1] = region;
+    let mut band = Band {
+        grid,
+        discs: Vec::new(),
+        payloads: Vec::new(),
+        tries: Vec::new(),
+        active: Vec::new(),
+    };
     let mut scan = 0usize;
     let mut step = 0u64;
     loop {
-        if !active.is_empty() {
+        if !band.active.is_empty() {
             // A random one of the most recently added: growth stays on a compact front, which
             // keeps the grid's working set in cache, yet is not a single ordered wave.
-            let window = active.len().min(WINDOW);
-            let slot = active.len() - 1 - rng::hash3(seed, PICK, step) as usize % window;
-            let parent = active[slot];
+            let window = band.active.len().min(WINDOW);
+            let slot = band.active.len() - 1 - rng::hash3(seed, PICK, step) as usize % window;
+            let parent = band.active[slot] as usize;
             step += 1;
-            let p = discs[parent as usize];
+            let p = band.discs[parent];
             let mut placed = false;
             for _ in 0..ATTEMPTS {
-                let attempt = tries[parent as usize];
-                tries[parent as usize] += 1;
+                let attempt = band.tries[parent];
+                band.tries[parent] += 1;
                 let key = rng::hash3(seed ^ GROW, parent as u64, attempt as u64);
                 // A point of the annulus between r and 2r, uniform over its area, by
                 // rejection from the enclosing square (no trigonometry in the inner loop).
@@ -187,62 +216,45 @@ fn sample_band<T>(
                     }
                     k = rng::mix64(k ^ GROW);
                 };
-                if let Some(payload) = try_dart(
-                    &mut grid,
-                    &mut discs,
-                    p.x + dx,
-                    p.z + dz,
-                    rng::mix64(key ^ GROW),
-                ) {
-                    active.push(discs.len() as u32 - 1);
-                    payloads.push(payload);
-                    tries.push(0);
+                if band.try_dart(p.x + dx, p.z + dz, rng::mix64(key ^ GROW), propose) {
                     placed = true;
                     break;
                 }
             }
             if !placed {
-                active.swap_remove(slot);
+                band.active.swap_remove(slot);
             }
             continue;
         }
-        // Nothing active: look for the next empty cell that can take a sample.
+        // Nothing active: look for the next empty cell that can take a sample. Where the cell's
+        // centre lies in no disc, a few darts in the cell look for room.
+        let (cell, nx, nz) = (band.grid.cell, band.grid.nx, band.grid.nz);
         let mut seeded = false;
-        while scan < grid.nx * grid.nz && !seeded {
-            let (ci, cj) = (scan % grid.nx, scan / grid.nx);
+        while scan < nx * nz && !seeded {
+            let (ci, cj) = (scan % nx, scan / nx);
             scan += 1;
-            let c = grid.index(ci, cj);
-            let (sx, sz) = (x0 + ci as f64 * grid.cell, z0 + cj as f64 * grid.cell);
-            if grid.cells[c].r != 0.0 || !may_take([sx, sz, sx + grid.cell, sz + grid.cell]) {
+            let c = band.grid.index(ci, cj);
+            let (sx, sz) = (x0 + ci as f64 * cell, z0 + cj as f64 * cell);
+            if band.grid.cells[c].r != 0.0
+                || !may_take([sx, sz, sx + cell, sz + cell])
+                || band.grid.covers(c, sx + 0.5 * cell, sz + 0.5 * cell)
+            {
                 continue;
             }
-            // Where the cell's centre lies in no disc, a few darts in the cell look for room.
-            let h = grid.cell;
-            if grid.covers(c, sx + 0.5 * h, sz + 0.5 * h) {
-                continue;
-            }
-            for k in 0..SCAN_DARTS {
+            seeded = (0..SCAN_DARTS).any(|k| {
                 let key = rng::hash3(seed ^ SCAN, c as u64, k);
-                let x = sx + rng::unit(key) * h;
-                let z = sz + rng::unit(rng::mix64(key)) * h;
-                if x >= x1 || z >= z1 {
-                    continue;
-                }
-                if let Some(payload) = try_dart(&mut grid, &mut discs, x, z, rng::mix64(key ^ SCAN))
-                {
-                    active.push(discs.len() as u32 - 1);
-                    payloads.push(payload);
-                    tries.push(0);
-                    seeded = true;
-                    break;
-                }
-            }
+                let (x, z) = (
+                    sx + rng::unit(key) * cell,
+                    sz + rng::unit(rng::mix64(key)) * cell,
+                );
+                x < x1 && z < z1 && band.try_dart(x, z, rng::mix64(key ^ SCAN), propose)
+            });
         }
         if !seeded {
             break;
         }
     }
-    discs.into_iter().zip(payloads).collect()
+    band.discs.into_iter().zip(band.payloads).collect()
 }
 
 /// A background cell: the sample in it, position relative to the region's minimum corner;
