@@ -33,6 +33,20 @@ fn parse_slice(s: &str) -> anyhow::Result<(usize, usize)> {
     Ok((axis, index.trim().parse().map_err(|_| bad())?))
 }
 
+/// A summary as JSON or as text.
+fn print_summary<S: serde::Serialize>(
+    summary: &S,
+    json: bool,
+    text: fn(&S) -> String,
+) -> anyhow::Result<()> {
+    let out = if json {
+        serde_json::to_string_pretty(summary)? + "\n"
+    } else {
+        text(summary)
+    };
+    super::print(&out)
+}
+
 fn write_png(out: &Path, image: &image::RgbImage) -> anyhow::Result<()> {
     write_atomic(out, &pictures::png_bytes(image))
         .with_context(|| format!("cannot write {}", out.display()))
@@ -57,12 +71,7 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
             bail!("-o names a picture: give --slice or --projection with it");
         }
         let s = summary::summarize(&texel, bytes.len() as u64);
-        let text = if args.json {
-            serde_json::to_string_pretty(&s)? + "\n"
-        } else {
-            summary::to_text(&s)
-        };
-        return super::print(&text);
+        return print_summary(&s, args.json, summary::to_text);
     }
     let Some(out) = &args.output else {
         bail!("--slice and --projection write a picture: give -o FILE.png");
@@ -111,12 +120,7 @@ fn run_instances(args: &InspectArgs, bytes: &[u8]) -> anyhow::Result<()> {
             bail!("-o names a picture: give --map with it");
         }
         let s = forest_view::summarize(&forest, bytes.len() as u64);
-        let text = if args.json {
-            serde_json::to_string_pretty(&s)? + "\n"
-        } else {
-            forest_view::to_text(&s)
-        };
-        return super::print(&text);
+        return print_summary(&s, args.json, forest_view::to_text);
     }
     let Some(out) = &args.output else {
         bail!("--map writes a picture: give -o FILE.png");
