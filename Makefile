@@ -13,7 +13,8 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
 .PHONY: demo test bench accuracy fixtures clean FORCE
 .DELETE_ON_ERROR:
 
-FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png
+FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
+          $(OUT)/forest.exr
 
 demo: $(TEXELS) $(VIEWS) $(FOREST)
 	@echo "demo: outputs under $(OUT)/ (trees/: texels, summaries, pictures; forest.*: the placed forest and its map)"
@@ -22,7 +23,7 @@ test:
 	$(CARGO) test --release
 
 bench:
-	$(CARGO) bench --bench bake --bench place
+	$(CARGO) bench --bench bake --bench place --bench render
 
 accuracy:
 	$(CARGO) run --release --example accuracy -- --anisotropy
@@ -68,4 +69,8 @@ $(OUT)/forest.json: $(OUT)/forest.instances
 $(OUT)/forest-map.png: $(OUT)/forest.instances
 	$(TEXEL) inspect $< --map -o $@
 
--include $(TEXELS:%=%.d) $(OUT)/forest.instances.d
+# The paper's figure 6 view: the whole forested mountain from afar in afternoon light.
+$(OUT)/forest.exr: $(OUT)/forest.instances $(TEXEL)
+	$(TEXEL) render $< -o $@ --preview $(OUT)/forest.png --width 1280 --height 720 --depfile $@.d
+
+-include $(TEXELS:%=%.d) $(OUT)/forest.instances.d $(OUT)/forest.exr.d

@@ -28,14 +28,105 @@ pub struct Cli {
     pub command: Command,
 }
 
+// Parsed once per run: the size of the largest variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Bake a glTF tree into a .texel 3D texture.
     Bake(BakeArgs),
     /// Place trees on a terrain: species chosen by habitat, Poisson-disk spacing.
     Place(PlaceArgs),
+    /// Ray trace a forest over its terrain with volume rendering, to a linear OpenEXR.
+    Render(RenderArgs),
     /// Describe a texel-forest file, as text, JSON or pictures.
     Inspect(InspectArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The forest (.instances); its texels and terrain are found relative to it.
+    pub instances: PathBuf,
+    /// The image to write: OpenEXR, linear, scene-referred, premultiplied RGBA + Z.
+    #[arg(short, long, value_name = "FRAME.exr")]
+    pub output: PathBuf,
+    /// The terrain (default: the one the forest was placed on).
+    #[arg(long, value_name = "FILE")]
+    pub terrain: Option<PathBuf>,
+    /// A camera node of the terrain glTF (or of --camera-file), by name.
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["eye", "target"])]
+    pub camera: Option<String>,
+    /// A glTF file holding the camera named by --camera (and lights).
+    #[arg(long, value_name = "FILE")]
+    pub camera_file: Option<PathBuf>,
+    /// Eye position (world metres).
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true,
+        requires = "target"
+    )]
+    pub eye: Option<String>,
+    /// Point looked at (world metres).
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true,
+        requires = "eye"
+    )]
+    pub target: Option<String>,
+    /// Vertical field of view, degrees.
+    #[arg(long, value_name = "DEGREES")]
+    pub fov: Option<f64>,
+    /// Sun direction: compass azimuth (degrees clockwise from north, -Z) and elevation
+    /// (default: a directional light of the glTF, else afternoon light from the south-west).
+    #[arg(long, value_name = "AZ,EL", allow_hyphen_values = true)]
+    pub sun: Option<String>,
+    /// Day of the year for foliage colour and leaf fraction.
+    #[arg(long, default_value_t = 200.0, value_name = "1..366")]
+    pub day: f64,
+    #[arg(long, default_value_t = 1280)]
+    pub width: u32,
+    #[arg(long, default_value_t = 720)]
+    pub height: u32,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Render only this part of the frame (pixels, x1 and y1 exclusive); equals the same region
+    /// of a full render bit for bit.
+    #[arg(long, value_name = "X0,Y0,X1,Y1")]
+    pub crop: Option<String>,
+    /// Also write an sRGB preview over a sky, for people.
+    #[arg(long, value_name = "FRAME.png")]
+    pub preview: Option<PathBuf>,
+    /// Extra EXR layers: normal, albedo, canopy, species (comma-separated).
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub aov: Vec<AovArg>,
+    /// Write colour and AOVs as half floats (depth stays float).
+    #[arg(long)]
+    pub half: bool,
+    /// Sky radiance (linear RGB) behind everything; without it the sky is transparent.
+    #[arg(long, value_name = "R,G,B")]
+    pub sky: Option<String>,
+    /// Segment length in texture cells (smaller: slower, less noise).
+    #[arg(long, default_value_t = 1.0)]
+    pub step: f32,
+    /// Transmittance at which a ray stops.
+    #[arg(long, default_value_t = 1e-3)]
+    pub cutoff: f32,
+    /// Random seed of the sampling.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Also write a Make rule listing every file the render read.
+    #[arg(long, value_name = "FILE")]
+    pub depfile: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AovArg {
+    Normal,
+    Albedo,
+    Canopy,
+    Species,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -18,6 +18,7 @@ pub mod mesh_tracer;
 pub mod output;
 pub mod place;
 pub mod procedural;
+pub mod render;
 pub mod rng;
 pub mod silhouette;
 pub mod species;

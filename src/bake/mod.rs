@@ -138,11 +138,7 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     for part in 0..2 {
         level.gradient[part] = sobel::gradient(&level.density[part], grid.dims, grid.cell);
     }
-    let mut levels = vec![level];
-    while levels.last().is_some_and(|l| l.cell_count() > 1) {
-        let next = filter::reduce(levels.last().expect("non-empty"));
-        levels.push(next);
-    }
+    let levels = mip_chain(level);
 
     let (lo, hi) = mesh.bounds().expect("fit_grid checked for triangles");
     Ok(Texel {
@@ -198,6 +194,16 @@ pub fn axis_extinctions(
             .collect()
     });
     Ok((grid, per_axis))
+}
+
+/// Level 0 and every coarser level down to one cell (see `formats/texel.md`).
+pub fn mip_chain(level0: Level) -> Vec<Level> {
+    let mut levels = vec![level0];
+    while let Some(last) = levels.last().filter(|l| l.cell_count() > 1) {
+        let next = filter::reduce(last);
+        levels.push(next);
+    }
+    levels
 }
 
 fn fit_grid(mesh: &Mesh, settings: &BakeSettings) -> Result<Grid, BakeError> {

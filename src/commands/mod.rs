@@ -3,6 +3,7 @@
 mod bake;
 mod inspect;
 mod place;
+mod render;
 
 use crate::cli::{Cli, Command};
 
@@ -18,6 +19,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Bake(args) => bake::run(&args, cli.quiet),
         Command::Place(args) => place::run(&args, cli.quiet),
+        Command::Render(args) => render::run(&args, cli.quiet),
         Command::Inspect(args) => inspect::run(&args),
     }
 }

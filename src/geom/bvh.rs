@@ -18,6 +18,12 @@ struct Node {
     count: u32,
 }
 
+/// What a node holds: two child nodes, or primitive indices.
+pub enum NodeContent<'a> {
+    Inner(u32, u32),
+    Leaf(&'a [u32]),
+}
+
 #[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<Node>,
@@ -72,6 +78,21 @@ impl Bvh {
 
     pub fn bounds(&self) -> Aabb {
         self.nodes[0].bounds
+    }
+
+    /// Node `i` (0 is the root) for callers that walk the tree themselves: its box and either
+    /// its two children or its primitives. `None` for an empty tree.
+    pub fn node(&self, i: u32) -> Option<(Aabb, NodeContent<'_>)> {
+        if self.order.is_empty() {
+            return None;
+        }
+        let n = self.nodes.get(i as usize)?;
+        let content = if n.count > 0 {
+            NodeContent::Leaf(&self.order[n.start as usize..(n.start + n.count) as usize])
+        } else {
+            NodeContent::Inner(n.start, n.start + 1)
+        };
+        Some((n.bounds, content))
     }
 
     /// Walks the nodes `ray` crosses within (t_min, t_max), nearest first, calling `test` on

@@ -6,7 +6,7 @@ mod triangle;
 mod triangles;
 
 pub use aabb::Aabb;
-pub use bvh::Bvh;
+pub use bvh::{Bvh, NodeContent};
 pub use triangle::{TriangleHit, intersect_triangle};
 pub use triangles::TriangleBvh;
 

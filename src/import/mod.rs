@@ -118,10 +118,35 @@ impl Mesh {
     }
 }
 
+/// A perspective camera of the scene, in the model's space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneCamera {
+    pub name: String,
+    pub eye: glam::DVec3,
+    /// Unit viewing direction (the node's -Z) and up (its +Y).
+    pub forward: glam::DVec3,
+    pub up: glam::DVec3,
+    /// Vertical field of view, radians.
+    pub yfov: f64,
+}
+
+/// A directional light of the scene (`KHR_lights_punctual`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneSun {
+    pub name: String,
+    /// Unit vector towards the light (the node's +Z).
+    pub towards: glam::DVec3,
+    /// Illuminance, lux.
+    pub intensity: f64,
+    pub color: [f32; 3],
+}
+
 /// A model as imported, with the files it was read from.
 #[derive(Clone, Debug)]
 pub struct Model {
     pub mesh: Mesh,
+    pub cameras: Vec<SceneCamera>,
+    pub suns: Vec<SceneSun>,
     /// Every file read: the glTF first, then external buffers and images, in the order read.
     pub sources: Vec<Source>,
     /// Things skipped or ignored that a user may want to know about.
@@ -197,7 +222,7 @@ impl ImportError {
 /// flattens the default scene into one mesh in the model's space.
 pub fn load(path: &Path) -> Result<Model, ImportError> {
     let mut doc = document::Document::open(path)?;
-    let mesh = scene::flatten(&mut doc)?;
+    let (mesh, cameras, suns) = scene::flatten(&mut doc)?;
     if mesh.triangles.is_empty() {
         return Err(ImportError::invalid(
             path,
@@ -207,6 +232,8 @@ pub fn load(path: &Path) -> Result<Model, ImportError> {
     }
     Ok(Model {
         mesh,
+        cameras,
+        suns,
         sources: doc.sources,
         warnings: doc.warnings,
     })

@@ -11,23 +11,29 @@ use json::validation::Checked;
 use super::accessor;
 use super::document::Document;
 use super::image::load_texture;
-use super::{AlphaMode, ImportError, Material, Mesh, Triangle};
+use super::{AlphaMode, ImportError, Material, Mesh, SceneCamera, SceneSun, Triangle};
 
 /// Deeper hierarchies than this are refused as malformed (real assets nest a handful of levels).
 const MAX_DEPTH: usize = 256;
 
 struct Builder {
     mesh: Mesh,
+    cameras: Vec<SceneCamera>,
+    suns: Vec<SceneSun>,
     /// glTF material index (None = default material) -> index in `mesh.materials`.
     materials: HashMap<Option<usize>, u32>,
     /// glTF texture index -> index in `mesh.textures`.
     textures: HashMap<usize, u32>,
 }
 
-pub(super) fn flatten(doc: &mut Document) -> Result<Mesh, ImportError> {
+pub(super) fn flatten(
+    doc: &mut Document,
+) -> Result<(Mesh, Vec<SceneCamera>, Vec<SceneSun>), ImportError> {
     let roots = scene_roots(doc)?;
     let mut builder = Builder {
         mesh: Mesh::default(),
+        cameras: Vec::new(),
+        suns: Vec::new(),
         materials: HashMap::new(),
         textures: HashMap::new(),
     };
@@ -43,7 +49,7 @@ pub(super) fn flatten(doc: &mut Document) -> Result<Mesh, ImportError> {
             &format!("scene.nodes[{i}]"),
         )?;
     }
-    Ok(builder.mesh)
+    Ok((builder.mesh, builder.cameras, builder.suns))
 }
 
 /// The root nodes of the default scene: `scene`, else the first scene, else (a file with no
@@ -127,6 +133,47 @@ fn visit(
         ));
     }
     let mesh = node.mesh.map(|m| m.value());
+    let axis = |v: DVec3| world.transform_vector3(v).normalize_or_zero();
+    if let Some(c) = node.camera.and_then(|c| doc.root.cameras.get(c.value()))
+        && let Some(p) = &c.perspective
+    {
+        b.cameras.push(SceneCamera {
+            name: c
+                .name
+                .clone()
+                .or_else(|| node.name.clone())
+                .unwrap_or_else(|| format!("camera {}", b.cameras.len())),
+            eye: world.transform_point3(DVec3::ZERO),
+            forward: axis(DVec3::NEG_Z),
+            up: axis(DVec3::Y),
+            yfov: p.yfov as f64,
+        });
+    }
+    let light = node
+        .extensions
+        .as_ref()
+        .and_then(|e| e.khr_lights_punctual.as_ref())
+        .map(|l| l.light.value());
+    let lights = doc
+        .root
+        .extensions
+        .as_ref()
+        .and_then(|e| e.khr_lights_punctual.as_ref());
+    if let Some(l) = light.and_then(|i| lights.and_then(|ls| ls.lights.get(i)))
+        && l.type_
+            == Checked::Valid(json::extensions::scene::khr_lights_punctual::Type::Directional)
+    {
+        b.suns.push(SceneSun {
+            name: l
+                .name
+                .clone()
+                .or_else(|| node.name.clone())
+                .unwrap_or_else(|| format!("light {}", b.suns.len())),
+            towards: axis(DVec3::Z),
+            intensity: l.intensity as f64,
+            color: l.color,
+        });
+    }
     let children: Vec<usize> = node.children.iter().flatten().map(|c| c.value()).collect();
     if node.skin.is_some() {
         doc.warn(format!(

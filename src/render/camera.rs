@@ -1,0 +1,198 @@
+//! A pinhole camera: primary rays per pixel and the matrices OpenEXR records.
+//!
+//! Rays start at the eye, which is the origin of the renderer's frame: every scene position is
+//! stored relative to it, so a terrain 100 km from the world origin loses no precision in f32.
+
+use glam::{DVec3, Vec3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// World position of the eye.
+    pub eye: DVec3,
+    /// Unit vectors: viewing direction, image right, image up.
+    pub forward: DVec3,
+    pub right: DVec3,
+    pub up: DVec3,
+    /// Vertical field of view, radians.
+    pub vfov: f64,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target`, +Y up (or +Z when looking straight up or down).
+    pub fn look_at(
+        eye: DVec3,
+        target: DVec3,
+        vfov_degrees: f64,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera, String> {
+        let forward = (target - eye).normalize_or_zero();
+        if forward == DVec3::ZERO || !forward.is_finite() {
+            return Err("the camera's eye and target coincide".into());
+        }
+        if !(vfov_degrees > 0.0 && vfov_degrees < 179.0) {
+            return Err(format!(
+                "field of view {vfov_degrees} degrees must be between 0 and 179"
+            ));
+        }
+        if width == 0 || height == 0 {
+            return Err("the image needs a width and a height of at least 1 pixel".into());
+        }
+        let hint = if forward.y.abs() > 0.999 {
+            DVec3::Z
+        } else {
+            DVec3::Y
+        };
+        let right = forward.cross(hint).normalize();
+        let up = right.cross(forward);
+        Ok(Camera {
+            eye,
+            forward,
+            right,
+            up,
+            vfov: vfov_degrees.to_radians(),
+            width,
+            height,
+        })
+    }
+
+    /// A camera from a frame: viewing direction and an up hint (a glTF camera node's -Z, +Y).
+    pub fn from_frame(
+        eye: DVec3,
+        forward: DVec3,
+        up: DVec3,
+        vfov: f64,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera, String> {
+        Camera::look_at(eye, eye + forward, vfov.to_degrees(), width, height).map(|mut c| {
+            let right = c.forward.cross(up).normalize_or_zero();
+            if right != DVec3::ZERO {
+                c.right = right;
+                c.up = right.cross(c.forward);
+            }
+            c
+        })
+    }
+
+    fn half_extent(&self) -> (f64, f64) {
+        let h = (0.5 * self.vfov).tan();
+        (h * self.width as f64 / self.height as f64, h)
+    }
+
+    /// Unit direction (renderer frame) through image point (px, py) in pixels, y down.
+    pub fn direction(&self, px: f64, py: f64) -> Vec3 {
+        let (hx, hy) = self.half_extent();
+        let sx = (2.0 * px / self.width as f64 - 1.0) * hx;
+        let sy = (1.0 - 2.0 * py / self.height as f64) * hy;
+        (self.forward + self.right * sx + self.up * sy)
+            .normalize()
+            .as_vec3()
+    }
+
+    /// Angle a pixel subtends at the image centre, radians: the cone a ray stands for.
+    pub fn pixel_angle(&self) -> f64 {
+        2.0 * (0.5 * self.vfov).tan() / self.height as f64
+    }
+
+    /// OpenEXR `worldToCamera`: camera space is left-handed, x right, y up, z forward;
+    /// stored for row vectors (p' = p M), as Imath does.
+    pub fn world_to_camera(&self) -> [f32; 16] {
+        let (r, u, f, e) = (self.right, self.up, self.forward, self.eye);
+        let m = [
+            [r.x, u.x, f.x, 0.0],
+            [r.y, u.y, f.y, 0.0],
+            [r.z, u.z, f.z, 0.0],
+            [-r.dot(e), -u.dot(e), -f.dot(e), 1.0],
+        ];
+        std::array::from_fn(|i| m[i / 4][i % 4] as f32)
+    }
+
+    /// OpenEXR `worldToNDC`: to the image plane with (0, 0) the top-left and (1, 1) the
+    /// bottom-right corner of the display window (after dividing by w), for row vectors.
+    pub fn world_to_ndc(&self) -> [f32; 16] {
+        let (hx, hy) = self.half_extent();
+        // Camera (x, y, z) -> NDC ((x / (z hx) + 1) / 2, (1 - y / (z hy)) / 2) = (X / W, Y / W)
+        // with X = x / (2 hx) + z / 2, Y = -y / (2 hy) + z / 2, W = z.
+        let projection = [
+            [0.5 / hx, 0.0, 0.0, 0.0],
+            [0.0, -0.5 / hy, 0.0, 0.0],
+            [0.5, 0.5, 1.0, 1.0],
+            [0.0, 0.0, 0.0, 0.0],
+        ];
+        let c = self.world_to_camera();
+        let cam: [[f64; 4]; 4] =
+            std::array::from_fn(|i| std::array::from_fn(|j| c[4 * i + j] as f64));
+        let mut m = [0.0f32; 16];
+        for i in 0..4 {
+            for j in 0..4 {
+                m[4 * i + j] = (0..4).map(|k| cam[i][k] * projection[k][j]).sum::<f64>() as f32;
+            }
+        }
+        m
+    }
+
+    /// Camera-space depth (along the viewing direction) of a renderer-frame point.
+    pub fn depth(&self, p: Vec3) -> f32 {
+        p.as_dvec3().dot(self.forward) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn apply(m: &[f32; 16], p: DVec3) -> [f64; 4] {
+        let v = [p.x, p.y, p.z, 1.0];
+        std::array::from_fn(|j| (0..4).map(|i| v[i] * m[4 * i + j] as f64).sum())
+    }
+
+    #[test]
+    fn the_centre_ray_looks_at_the_target_and_corners_span_the_field_of_view() {
+        let c = Camera::look_at(
+            DVec3::new(10.0, 5.0, 10.0),
+            DVec3::new(10.0, 5.0, 0.0),
+            60.0,
+            200,
+            100,
+        )
+        .unwrap();
+        let d = c.direction(100.0, 50.0);
+        assert!((d - Vec3::NEG_Z).length() < 1e-6);
+        let top = c.direction(100.0, 0.0);
+        assert!((top.angle_between(Vec3::NEG_Z).to_degrees() - 30.0).abs() < 1e-3);
+        assert!(
+            c.direction(0.0, 50.0).x < 0.0,
+            "left of the image is -x when looking down -z"
+        );
+    }
+
+    #[test]
+    fn exr_matrices_map_points_as_openexr_defines() {
+        let c = Camera::look_at(
+            DVec3::new(100_000.0, 10.0, 0.0),
+            DVec3::new(100_000.0, 10.0, -50.0),
+            90.0,
+            400,
+            200,
+        )
+        .unwrap();
+        let p = c.eye + c.forward * 20.0 + c.right * 3.0 + c.up * 2.0;
+        let cam = apply(&c.world_to_camera(), p);
+        assert!(
+            (cam[0] - 3.0).abs() < 0.02
+                && (cam[1] - 2.0).abs() < 0.02
+                && (cam[2] - 20.0).abs() < 0.02,
+            "{cam:?}"
+        );
+        // A point projecting through pixel (300, 50) lands at NDC (0.75, 0.25).
+        let dir = c.direction(300.0, 50.0).as_dvec3();
+        let ndc = apply(&c.world_to_ndc(), c.eye + dir * 40.0);
+        assert!(
+            (ndc[0] / ndc[3] - 0.75).abs() < 1e-3 && (ndc[1] / ndc[3] - 0.25).abs() < 1e-3,
+            "{ndc:?}"
+        );
+    }
+}

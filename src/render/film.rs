@@ -1,0 +1,141 @@
+//! The rendered image: linear, scene-referred, premultiplied RGBA with depth and optional
+//! arbitrary output values, written as OpenEXR; and an sRGB preview for people.
+
+use exr::prelude::*;
+use glam::Vec3;
+
+use crate::color::to_srgb8;
+
+/// Extra layers a render can write beside RGBA and Z.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Aovs {
+    pub normal: bool,
+    pub albedo: bool,
+    pub canopy: bool,
+    pub species: bool,
+}
+
+/// Pixels of a window of the frame, row-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    /// The window: x0, y0 (inclusive) and size, within the full frame.
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Size of the full frame (the display window).
+    pub frame: (u32, u32),
+    pub rgba: Vec<[f32; 4]>,
+    /// Camera-space depth; infinite where nothing was hit.
+    pub z: Vec<f32>,
+    pub normal: Vec<Vec3>,
+    pub albedo: Vec<Vec3>,
+    pub canopy: Vec<f32>,
+    pub species: Vec<f32>,
+}
+
+impl Film {
+    pub fn new(x0: u32, y0: u32, width: u32, height: u32, frame: (u32, u32)) -> Film {
+        let n = (width * height) as usize;
+        Film {
+            x0,
+            y0,
+            width,
+            height,
+            frame,
+            rgba: vec![[0.0; 4]; n],
+            z: vec![f32::INFINITY; n],
+            normal: vec![Vec3::ZERO; n],
+            albedo: vec![Vec3::ZERO; n],
+            canopy: vec![0.0; n],
+            species: vec![0.0; n],
+        }
+    }
+
+    /// An OpenEXR file: channels R, G, B, A, Z (half or float) and the asked-for AOVs, the data
+    /// window placed within the full frame's display window, the camera matrices as
+    /// `worldToCamera` and `worldToNDC`.
+    pub fn exr_bytes(
+        &self,
+        half: bool,
+        aovs: Aovs,
+        world_to_camera: [f32; 16],
+        world_to_ndc: [f32; 16],
+    ) -> std::result::Result<Vec<u8>, String> {
+        let samples = |v: Vec<f32>| {
+            if half {
+                FlatSamples::F16(v.into_iter().map(f16::from_f32).collect())
+            } else {
+                FlatSamples::F32(v)
+            }
+        };
+        let column = |f: &dyn Fn(usize) -> f32| (0..self.rgba.len()).map(f).collect::<Vec<f32>>();
+        let mut channels = vec![
+            AnyChannel::new("R", samples(column(&|i| self.rgba[i][0]))),
+            AnyChannel::new("G", samples(column(&|i| self.rgba[i][1]))),
+            AnyChannel::new("B", samples(column(&|i| self.rgba[i][2]))),
+            AnyChannel::new("A", samples(column(&|i| self.rgba[i][3]))),
+            // Depth stays float: half would lose metres at a few kilometres.
+            AnyChannel::new("Z", FlatSamples::F32(self.z.clone())),
+        ];
+        if aovs.normal {
+            for (c, name) in ["normal.X", "normal.Y", "normal.Z"].iter().enumerate() {
+                channels.push(AnyChannel::new(
+                    *name,
+                    samples(column(&|i| self.normal[i][c])),
+                ));
+            }
+        }
+        if aovs.albedo {
+            for (c, name) in ["albedo.R", "albedo.G", "albedo.B"].iter().enumerate() {
+                channels.push(AnyChannel::new(
+                    *name,
+                    samples(column(&|i| self.albedo[i][c])),
+                ));
+            }
+        }
+        if aovs.canopy {
+            channels.push(AnyChannel::new("canopy.A", samples(self.canopy.clone())));
+        }
+        if aovs.species {
+            channels.push(AnyChannel::new(
+                "species.id",
+                FlatSamples::F32(self.species.clone()),
+            ));
+        }
+        let attributes = LayerAttributes {
+            world_to_camera: Some(world_to_camera),
+            world_to_normalized_device: Some(world_to_ndc),
+            software_name: Some(Text::from(concat!(
+                "texel-forest ",
+                env!("CARGO_PKG_VERSION")
+            ))),
+            layer_position: Vec2(self.x0 as i32, self.y0 as i32),
+            ..LayerAttributes::default()
+        };
+        let layer = Layer::new(
+            (self.width as usize, self.height as usize),
+            attributes,
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(channels.into()),
+        );
+        let mut image = Image::from_layer(layer);
+        image.attributes.display_window =
+            IntegerBounds::from_dimensions((self.frame.0 as usize, self.frame.1 as usize));
+        let mut bytes = Vec::new();
+        image
+            .write()
+            .to_buffered(std::io::Cursor::new(&mut bytes))
+            .map_err(|e| e.to_string())?;
+        Ok(bytes)
+    }
+
+    /// An sRGB picture for people: the radiance composited over `sky` (linear), clipped.
+    pub fn preview(&self, sky: Vec3) -> image::RgbImage {
+        image::RgbImage::from_fn(self.width, self.height, |x, y| {
+            let p = self.rgba[(x + self.width * y) as usize];
+            let rgb = Vec3::new(p[0], p[1], p[2]) + sky * (1.0 - p[3]);
+            image::Rgb(to_srgb8(rgb.to_array()))
+        })
+    }
+}

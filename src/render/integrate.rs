@@ -1,0 +1,470 @@
+//! Volume rendering along a ray (the paper's section 3), in its continuous, normalised form:
+//!
+//! ```text
+//! L = integral of T(t) sigma(t) S(t) dt + T(far) L_behind,   T(t) = exp(-integral of sigma)
+//! ```
+//!
+//! sigma is the sum of the extinctions of every instance containing the point (equation 4);
+//! colour and normal are sigma-weighted averages over them; S is the paper's equation (3) with
+//! I(t) the sun's light times the transmittance towards the sun through every texture and the
+//! terrain (equation 2). Normalised this way an opaque volume shades exactly like a surface.
+//!
+//! Instances are found front to back and lazily, as interval events: a heap of bounding
+//! volume nodes and instance boxes ordered by where the ray enters them; a node is opened only
+//! when the march reaches it, so a grazing ray over a forest never collects the boxes it does
+//! not reach. Between events the ray is cut into segments of one texture cell (at the level
+//! the pixel's footprint needs); each segment takes one jittered sample (stratified Monte
+//! Carlo), whose extinction, colour and normal stand for the segment: the segment transmits
+//! exp(-sigma length) and adds T (1 - that) S.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::Vec3;
+
+use super::sampler;
+use super::scene::{Instance, Scene};
+use crate::geom::{NodeContent, Ray};
+use crate::rng;
+
+/// How finely and how far rays are followed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct March {
+    /// Segment length as a fraction of the texture cell (1 = one sample per cell).
+    pub step: f32,
+    /// Transmittance below which a ray stops (the paper's cut-off).
+    pub cutoff: f32,
+    /// Added to the mip level the footprint asks for (negative: sharper, slower).
+    pub lod_bias: f32,
+    /// Extra mip levels for shadow rays, which need less detail.
+    pub shadow_lod: f32,
+}
+
+impl Default for March {
+    fn default() -> Self {
+        March {
+            step: 1.0,
+            cutoff: 1e-3,
+            lod_bias: 0.0,
+            shadow_lod: 1.0,
+        }
+    }
+}
+
+/// The result of one ray: premultiplied radiance, what the sky sees through, and the
+/// arbitrary output values at the ray's "surface" (where its opacity first reaches one half).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Radiance {
+    pub rgb: Vec3,
+    /// Transmittance to the sky (0 where the terrain is hit).
+    pub transmittance: f32,
+    /// Distance along the ray to the surface; infinite where there is none.
+    pub distance: f32,
+    pub normal: Vec3,
+    pub albedo: Vec3,
+    /// Opacity of the trees alone.
+    pub canopy: f32,
+    /// Species index + 1 of the densest tree at the surface, 0 for terrain or sky.
+    pub species: f32,
+}
+
+/// An instance the ray is inside of, with its ray in the texture's cell coordinates.
+#[derive(Clone, Copy)]
+struct Active {
+    instance: u32,
+    exit: f32,
+    level: usize,
+    /// Cell coordinates at t = 0 and per unit t.
+    c0: Vec3,
+    dc: Vec3,
+    /// Extinction per density, 1/m of the renderer's frame.
+    sigma_scale: f32,
+    /// Segment length in this texture (m).
+    step: f32,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Item {
+    Node(u32),
+    Instance(u32, u32), // instance, exit as ordered bits
+}
+
+/// f32 >= 0 as an integer with the same order.
+fn key(t: f32) -> u32 {
+    t.max(0.0).to_bits()
+}
+
+/// The front-to-back walk of the instances along one ray.
+struct Walk<'a> {
+    scene: &'a Scene,
+    ray: Ray,
+    inv: Vec3,
+    heap: BinaryHeap<Reverse<(u32, Item)>>,
+    active: Vec<Active>,
+    /// Cone: footprint (m) at distance t is t x spread + base.
+    spread: f32,
+    base: f32,
+    lod_bias: f32,
+}
+
+impl<'a> Walk<'a> {
+    fn new(
+        scene: &'a Scene,
+        ray: Ray,
+        t_max: f32,
+        spread: f32,
+        base: f32,
+        lod_bias: f32,
+    ) -> Walk<'a> {
+        let inv = ray.dir.recip();
+        let mut walk = Walk {
+            scene,
+            ray,
+            inv,
+            heap: BinaryHeap::new(),
+            active: Vec::new(),
+            spread,
+            base,
+            lod_bias,
+        };
+        if let Some((bounds, _)) = scene.bvh.node(0)
+            && let Some((enter, _)) = bounds.intersect(&ray, inv, 0.0, t_max)
+        {
+            walk.heap.push(Reverse((key(enter), Item::Node(0))));
+        }
+        walk
+    }
+
+    /// Where the next instance or node begins, if any.
+    fn next_entry(&self) -> Option<f32> {
+        self.heap.peek().map(|Reverse((t, _))| f32::from_bits(*t))
+    }
+
+    /// Opens every node and activates every instance the ray has entered by `t`.
+    fn admit(&mut self, t: f32, t_max: f32) {
+        while let Some(&Reverse((enter, item))) = self.heap.peek() {
+            if f32::from_bits(enter) > t {
+                break;
+            }
+            self.heap.pop();
+            match item {
+                Item::Node(n) => match self.scene.bvh.node(n).map(|(_, c)| c) {
+                    Some(NodeContent::Inner(a, b)) => {
+                        for child in [a, b] {
+                            if let Some((bounds, _)) = self.scene.bvh.node(child)
+                                && let Some((e, _)) =
+                                    bounds.intersect(&self.ray, self.inv, 0.0, t_max)
+                            {
+                                self.heap.push(Reverse((key(e), Item::Node(child))));
+                            }
+                        }
+                    }
+                    Some(NodeContent::Leaf(items)) => {
+                        for &i in items {
+                            if let Some((e, x)) = self.instance_interval(i, t_max) {
+                                self.heap.push(Reverse((key(e), Item::Instance(i, key(x)))));
+                            }
+                        }
+                    }
+                    None => {}
+                },
+                Item::Instance(i, exit) => {
+                    self.activate(i, f32::from_bits(enter), f32::from_bits(exit))
+                }
+            }
+        }
+    }
+
+    /// The part of the ray inside instance `i`'s oriented box.
+    fn instance_interval(&self, i: u32, t_max: f32) -> Option<(f32, f32)> {
+        let inst = &self.scene.instances[i as usize];
+        let b = &self.scene.model_boxes[self.scene.looks[inst.look as usize].texel];
+        let local = Ray {
+            origin: inst.to_model(self.ray.origin),
+            dir: inst.dir_to_model(self.ray.dir),
+        };
+        b.intersect(&local, local.dir.recip(), 0.0, t_max)
+    }
+
+    fn activate(&mut self, i: u32, enter: f32, exit: f32) {
+        let inst: &Instance = &self.scene.instances[i as usize];
+        let look = &self.scene.looks[inst.look as usize];
+        let texel = &self.scene.texels[look.texel];
+        // The mip level whose cells match the ray's footprint where it enters.
+        let footprint = (enter * self.spread + self.base) / inst.scale;
+        let cell0 = texel.levels[0].cell as f32;
+        let wanted = (footprint / cell0).max(1.0).log2() + self.lod_bias;
+        let level = (wanted.max(0.0) as usize).min(texel.levels.len() - 1);
+        let cell = texel.levels[level].cell as f32;
+        let origin = texel.origin().as_vec3();
+        let o = inst.to_model(self.ray.origin);
+        let d = inst.dir_to_model(self.ray.dir);
+        self.active.push(Active {
+            instance: i,
+            exit,
+            level,
+            c0: (o - origin) / cell,
+            dc: d / cell,
+            sigma_scale: texel.info.extinction_scale as f32 / inst.scale,
+            step: cell * inst.scale,
+        });
+    }
+
+    fn retire(&mut self, t: f32) {
+        self.active.retain(|a| a.exit > t);
+    }
+}
+
+/// Transmittance from `origin` along `dir` up to `t_max` through every texture and the
+/// terrain. `footprint` (m) picks the texture level.
+pub fn transmittance(
+    scene: &Scene,
+    origin: Vec3,
+    dir: Vec3,
+    t_max: f32,
+    footprint: f32,
+    key: u64,
+    march: &March,
+) -> f32 {
+    let ray = Ray { origin, dir };
+    if let Some(g) = &scene.ground
+        && g.occluded(&ray, t_max)
+    {
+        return 0.0;
+    }
+    let mut walk = Walk::new(
+        scene,
+        ray,
+        t_max,
+        0.0,
+        footprint,
+        march.lod_bias + march.shadow_lod,
+    );
+    let mut t = 0.0f32;
+    let mut depth = 0.0f32;
+    let mut segment = 0u64;
+    loop {
+        walk.admit(t, t_max);
+        walk.retire(t);
+        if walk.active.is_empty() {
+            match walk.next_entry() {
+                Some(e) if e < t_max => {
+                    t = e;
+                    continue;
+                }
+                _ => break,
+            }
+        }
+        let (end, ts) = segment_end(&walk, t, t_max, march.step, rng::hash3(key, segment, 0x73));
+        segment += 1;
+        let mut sigma = 0.0;
+        for a in &walk.active {
+            let d = sampler::density(
+                &scene.texels
+                    [scene.looks[scene.instances[a.instance as usize].look as usize].texel]
+                    .levels[a.level],
+                a.c0 + a.dc * ts,
+            );
+            let foliage = scene.looks[scene.instances[a.instance as usize].look as usize].foliage;
+            sigma += a.sigma_scale * (d[0] + foliage * d[1]);
+        }
+        depth += sigma * (end - t);
+        if (-depth).exp() < march.cutoff {
+            return 0.0;
+        }
+        t = end;
+    }
+    (-depth).exp()
+}
+
+/// The end of the segment starting at `t` (one step of the finest active texture, cut at the
+/// next event) and the jittered sample position inside it.
+fn segment_end(walk: &Walk, t: f32, t_max: f32, step: f32, key: u64) -> (f32, f32) {
+    let mut end = t_max;
+    for a in &walk.active {
+        end = end.min(t + a.step * step).min(a.exit);
+    }
+    if let Some(e) = walk.next_entry() {
+        end = end.min(e.max(t));
+    }
+    // A zero-length segment cannot advance: guarantee progress by a hair.
+    if end <= t {
+        end = t + f32::EPSILON * t.max(1.0);
+    }
+    (end, t + rng::unit(key) as f32 * (end - t))
+}
+
+/// Radiance along the ray from the eye (the renderer frame's origin) in direction `dir`;
+/// `spread` is the angle a pixel subtends, `key` seeds the ray's random draws.
+pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) -> Radiance {
+    let ray = Ray {
+        origin: Vec3::ZERO,
+        dir,
+    };
+    let ground_hit = scene
+        .ground
+        .as_ref()
+        .and_then(|g| g.nearest(&ray, f32::INFINITY));
+    let t_max = ground_hit.map_or(f32::INFINITY, |(_, h)| h.t);
+    let mut walk = Walk::new(scene, ray, t_max, spread, 0.0, march.lod_bias);
+    let mut out = Radiance {
+        distance: f32::INFINITY,
+        ..Radiance::default()
+    };
+    let mut transmittance = 1.0f32;
+    let mut t = 0.0f32;
+    let mut segment = 0u64;
+    let sun = scene.sun;
+    loop {
+        walk.admit(t, t_max);
+        walk.retire(t);
+        if walk.active.is_empty() {
+            match walk.next_entry() {
+                Some(e) if e < t_max => {
+                    t = e;
+                    continue;
+                }
+                _ => break,
+            }
+        }
+        let (end, ts) = segment_end(&walk, t, t_max, march.step, rng::hash3(key, segment, 0x72));
+        segment += 1;
+        // Everything the instances containing the sample say, sigma-weighted.
+        let (mut sigma, mut albedo, mut gradient, mut densest) =
+            (0.0f32, Vec3::ZERO, Vec3::ZERO, (0.0f32, 0u16));
+        let cell_here = walk
+            .active
+            .iter()
+            .map(|a| a.step)
+            .fold(f32::INFINITY, f32::min);
+        for a in &walk.active {
+            let inst = &scene.instances[a.instance as usize];
+            let look = &scene.looks[inst.look as usize];
+            let f = sampler::fetch(&scene.texels[look.texel].levels[a.level], a.c0 + a.dc * ts);
+            let (wood, foliage) = (
+                a.sigma_scale * f.density[0],
+                a.sigma_scale * look.foliage * f.density[1],
+            );
+            let s = wood + foliage;
+            if s <= 0.0 {
+                continue;
+            }
+            sigma += s;
+            albedo += f.albedo[0] * wood + look.foliage_albedo * foliage;
+            // Gradients are linear in density; per metre of the frame they shrink with scale.
+            gradient += inst.dir_to_world(f.gradient[0] + f.gradient[1] * look.foliage)
+                * (a.sigma_scale / inst.scale);
+            if s > densest.0 {
+                densest = (s, inst.look);
+            }
+        }
+        let length = end - t;
+        t = end;
+        if sigma <= 0.0 {
+            continue;
+        }
+        let albedo = albedo / sigma;
+        let normal = (-gradient).try_normalize();
+        // The shadow ray leaves from one cell towards the sun: the sample stands for the
+        // surface layer it lies in, which must not shadow itself (an opaque volume would
+        // otherwise shade as Lommel-Seeliger's law, half as bright as a surface lit head-on).
+        let p = ray.dir * ts + sun.direction * cell_here;
+        let lit = sun_light(scene, p, t * spread, rng::hash3(key, segment, 0x6c), march);
+        let source = shade(scene, albedo, normal, lit, -dir);
+        let opacity = 1.0 - (-sigma * length).exp();
+        out.rgb += source * (transmittance * opacity);
+        let before = transmittance;
+        transmittance *= 1.0 - opacity;
+        if before > 0.5 && transmittance <= 0.5 {
+            out.distance = ts;
+            out.normal = normal.unwrap_or(Vec3::ZERO);
+            out.albedo = albedo;
+            out.species = densest.1 as f32 + 1.0;
+        }
+        if transmittance < march.cutoff {
+            break;
+        }
+    }
+    out.canopy = 1.0 - transmittance;
+    match ground_hit {
+        Some((tri, hit)) if transmittance >= march.cutoff => {
+            let g = scene
+                .ground
+                .as_ref()
+                .expect("a ground hit comes from the ground");
+            let p = ray.dir * hit.t;
+            let normal = g.normal(tri, dir);
+            let triangle = &g.mesh.triangles[tri as usize];
+            let albedo = g.mesh.base_color(triangle, hit.w).truncate();
+            let lift = p + normal * (1e-4 * hit.t.max(1.0));
+            let lit = if normal.dot(sun.direction) > 0.0 {
+                sun_light(
+                    scene,
+                    lift,
+                    hit.t * spread,
+                    rng::hash3(key, 0x67, 0x72),
+                    march,
+                )
+            } else {
+                0.0
+            };
+            let source = albedo
+                * (lit * scene.shading.kd * normal.dot(sun.direction).max(0.0)
+                    + scene.shading.ambient * scene.shading.kd);
+            out.rgb += source * transmittance;
+            if out.distance.is_infinite() {
+                out.distance = hit.t;
+                out.normal = normal;
+                out.albedo = albedo;
+            }
+            out.transmittance = 0.0;
+        }
+        Some(_) => out.transmittance = 0.0,
+        None => {
+            if let Some(sky) = scene.sky {
+                out.rgb += sky * transmittance;
+                out.transmittance = 0.0;
+            } else {
+                out.transmittance = transmittance;
+            }
+        }
+    }
+    out
+}
+
+/// I(t): the sun's radiance scale, irradiance / pi, times the transmittance towards it.
+fn sun_light(scene: &Scene, p: Vec3, footprint: f32, key: u64, march: &March) -> f32 {
+    let sun = scene.sun;
+    let t = transmittance(
+        scene,
+        p,
+        sun.direction,
+        f32::INFINITY,
+        footprint,
+        key,
+        march,
+    );
+    sun.irradiance / std::f32::consts::PI * t
+}
+
+/// Equation (3): albedo (I (kd cos theta + ks cos^n alpha) + Ia kd). Without a normal (no
+/// density gradient) the cosine is replaced by its mean over the hemisphere facing the
+/// light, 1/2, and there is no highlight.
+fn shade(scene: &Scene, albedo: Vec3, normal: Option<Vec3>, light: f32, to_eye: Vec3) -> Vec3 {
+    let s = &scene.shading;
+    let l = scene.sun.direction;
+    let direct = match normal {
+        Some(n) => {
+            let cos = n.dot(l).max(0.0);
+            let reflected = 2.0 * n.dot(l) * n - l;
+            let highlight = if cos > 0.0 {
+                reflected.dot(to_eye).max(0.0).powf(s.shininess)
+            } else {
+                0.0
+            };
+            s.kd * cos + s.ks * highlight
+        }
+        None => 0.5 * s.kd,
+    };
+    albedo * (light * direct + s.ambient * s.kd)
+}

@@ -1,0 +1,135 @@
+//! `render`: a forest of overlapping 3D textures over a polygon terrain, ray traced with
+//! volume rendering (the paper's section 3), to a linear EXR.
+//!
+//! `camera` makes primary rays, `scene` holds what they meet, `integrate` follows one ray,
+//! `film` keeps and writes the pixels. Pixels are computed in tiles in parallel; every random
+//! draw is keyed by the pixel and the sample, so the image is the same for any number of
+//! threads and a cropped render equals that region of the full one, bit for bit.
+
+pub mod camera;
+pub mod film;
+pub mod integrate;
+pub mod sampler;
+pub mod scene;
+
+use rayon::prelude::*;
+
+pub use camera::Camera;
+pub use film::{Aovs, Film};
+pub use integrate::{March, Radiance};
+pub use scene::{Ground, Lighting, Look, Placed, Scene, Shading, Sun};
+
+#[cfg(test)]
+mod tests;
+
+use crate::rng;
+
+const TILE: u32 = 32;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Samples per pixel, stratified over the pixel.
+    pub spp: u32,
+    pub march: March,
+    /// x0, y0, x1, y1 (exclusive) of the part of the frame to render.
+    pub crop: Option<[u32; 4]>,
+    pub seed: u64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            spp: 1,
+            march: March::default(),
+            crop: None,
+            seed: 0,
+        }
+    }
+}
+
+/// Renders `scene` through `camera`; `progress` is told each finished tile's pixel count.
+pub fn render(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Film {
+    let [x0, y0, x1, y1] = settings.crop.unwrap_or([0, 0, camera.width, camera.height]);
+    let mut film = Film::new(x0, y0, x1 - x0, y1 - y0, (camera.width, camera.height));
+    let tiles: Vec<(u32, u32)> = (y0..y1)
+        .step_by(TILE as usize)
+        .flat_map(|ty| (x0..x1).step_by(TILE as usize).map(move |tx| (tx, ty)))
+        .collect();
+    let spread = camera.pixel_angle() as f32;
+    let strata = (settings.spp as f64).sqrt().ceil() as u32;
+    let done: Vec<Vec<(u32, u32, Pixel)>> = tiles
+        .par_iter()
+        .map(|&(tx, ty)| {
+            let mut out = Vec::with_capacity((TILE * TILE) as usize);
+            for y in ty..(ty + TILE).min(y1) {
+                for x in tx..(tx + TILE).min(x1) {
+                    out.push((x, y, pixel(scene, camera, settings, x, y, strata, spread)));
+                }
+            }
+            progress(out.len() as u64);
+            out
+        })
+        .collect();
+    for (x, y, p) in done.into_iter().flatten() {
+        let i = ((x - x0) + film.width * (y - y0)) as usize;
+        film.rgba[i] = p.rgba;
+        film.z[i] = p.z;
+        film.normal[i] = p.radiance.normal;
+        film.albedo[i] = p.radiance.albedo;
+        film.canopy[i] = p.radiance.canopy;
+        film.species[i] = p.radiance.species;
+    }
+    film
+}
+
+struct Pixel {
+    rgba: [f32; 4],
+    z: f32,
+    /// The AOVs of the pixel's first sample.
+    radiance: Radiance,
+}
+
+/// The mean of `spp` samples, jittered within a `strata` x `strata` grid over the pixel.
+fn pixel(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    x: u32,
+    y: u32,
+    strata: u32,
+    spread: f32,
+) -> Pixel {
+    let pixel_key = rng::hash3(settings.seed, ((y as u64) << 32) | x as u64, 0x0070_6978);
+    let (mut rgba, mut first, mut z) = ([0.0f32; 4], None, f32::INFINITY);
+    for s in 0..settings.spp {
+        let key = rng::hash3(pixel_key, s as u64, 0);
+        let (sx, sy) = ((s % strata) as f64, ((s / strata) % strata) as f64);
+        let px = x as f64 + (sx + rng::unit(key)) / strata as f64;
+        let py = y as f64 + (sy + rng::unit(rng::mix64(key))) / strata as f64;
+        let dir = camera.direction(px, py);
+        let r = integrate::radiance(scene, dir, spread, rng::mix64(key ^ 0x5a), &settings.march);
+        for c in 0..3 {
+            rgba[c] += r.rgb[c];
+        }
+        rgba[3] += 1.0 - r.transmittance;
+        if r.distance.is_finite() {
+            z = z.min(camera.depth(dir * r.distance));
+        }
+        first.get_or_insert(r);
+    }
+    let n = settings.spp as f32;
+    // A non-finite value would poison every composite downstream; none should arise, but an
+    // image must never carry one.
+    let rgba = rgba.map(|v| if v.is_finite() { v / n } else { 0.0 });
+    let rgba = [rgba[0], rgba[1], rgba[2], rgba[3].clamp(0.0, 1.0)];
+    Pixel {
+        rgba,
+        z,
+        radiance: first.unwrap_or_default(),
+    }
+}

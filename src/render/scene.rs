@@ -1,0 +1,259 @@
+//! What the renderer draws, in its own frame (world minus the eye, f32): the trees as
+//! instances of textures, the terrain as triangles, the sun and the shading constants.
+
+use glam::{DVec3, Vec3};
+
+use crate::geom::{Aabb, Bvh, Ray, TriangleBvh, TriangleHit};
+use crate::import::Mesh;
+use crate::volume::Texel;
+
+/// How a species looks on the rendered day.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Look {
+    /// Index into [`Scene::texels`].
+    pub texel: usize,
+    /// Multiplies the foliage's extinction (the leaf fraction; 0 drops the foliage).
+    pub foliage: f32,
+    /// Linear albedo of the foliage on the day, replacing the baked one.
+    pub foliage_albedo: Vec3,
+}
+
+/// A tree to draw: a texture at a place, turned about +Y and scaled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placed {
+    pub look: u16,
+    /// World position of the base of the trunk.
+    pub position: DVec3,
+    /// Rotation about +Y, radians.
+    pub rotation: f32,
+    pub scale: f32,
+}
+
+/// A placed tree in the renderer's frame, with what its rays need precomputed.
+#[derive(Clone, Copy, Debug)]
+pub struct Instance {
+    pub look: u16,
+    pub position: Vec3,
+    pub cos: f32,
+    pub sin: f32,
+    pub scale: f32,
+}
+
+impl Instance {
+    /// Model-space point of a renderer-frame point.
+    #[inline]
+    pub fn to_model(&self, p: Vec3) -> Vec3 {
+        let d = (p - self.position) / self.scale;
+        // Inverse of a rotation by `angle` about +Y.
+        Vec3::new(
+            self.cos * d.x - self.sin * d.z,
+            d.y,
+            self.sin * d.x + self.cos * d.z,
+        )
+    }
+
+    /// Model-space direction of a renderer-frame direction (length divided by the scale).
+    #[inline]
+    pub fn dir_to_model(&self, d: Vec3) -> Vec3 {
+        let d = d / self.scale;
+        Vec3::new(
+            self.cos * d.x - self.sin * d.z,
+            d.y,
+            self.sin * d.x + self.cos * d.z,
+        )
+    }
+
+    /// Renderer-frame direction of a model-space direction (rotation only).
+    #[inline]
+    pub fn dir_to_world(&self, d: Vec3) -> Vec3 {
+        Vec3::new(
+            self.cos * d.x + self.sin * d.z,
+            d.y,
+            -self.sin * d.x + self.cos * d.z,
+        )
+    }
+}
+
+/// The sun: a direction and an irradiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sun {
+    /// Unit vector towards the sun.
+    pub direction: Vec3,
+    /// Irradiance on a surface facing the sun. pi makes a white Lambertian surface facing the
+    /// sun, unshadowed, exactly radiance 1.
+    pub irradiance: f32,
+}
+
+impl Sun {
+    /// From a compass azimuth (degrees clockwise from north, -Z) and an elevation above the
+    /// horizon (degrees).
+    pub fn from_angles(azimuth: f64, elevation: f64, irradiance: f32) -> Sun {
+        let (a, e) = (azimuth.to_radians(), elevation.to_radians());
+        let direction = DVec3::new(a.sin() * e.cos(), e.sin(), -a.cos() * e.cos())
+            .normalize()
+            .as_vec3();
+        Sun {
+            direction,
+            irradiance,
+        }
+    }
+}
+
+/// The paper's shading constants (equation 3): S = albedo (I (kd cos theta + ks cos^n alpha)
+/// + Ia kd).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shading {
+    pub kd: f32,
+    pub ks: f32,
+    pub shininess: f32,
+    /// Ia: radiance-scaled ambient (sky) light, in the units where a white surface lit by the
+    /// sun head-on has radiance irradiance / pi.
+    pub ambient: f32,
+}
+
+impl Default for Shading {
+    fn default() -> Self {
+        Shading {
+            kd: 1.0,
+            ks: 0.05,
+            shininess: 10.0,
+            ambient: 0.25,
+        }
+    }
+}
+
+/// The terrain surface in the renderer's frame.
+pub struct Ground {
+    pub triangles: TriangleBvh,
+    pub mesh: Mesh,
+    corners: Vec<[Vec3; 3]>,
+}
+
+impl Ground {
+    pub fn new(mesh: Mesh, origin: DVec3) -> Ground {
+        let corners: Vec<[Vec3; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                t.vertices
+                    .map(|v| (mesh.positions[v as usize].as_dvec3() - origin).as_vec3())
+            })
+            .collect();
+        Ground {
+            triangles: TriangleBvh::new(corners.clone()),
+            mesh,
+            corners,
+        }
+    }
+
+    pub fn nearest(&self, ray: &Ray, t_max: f32) -> Option<(u32, TriangleHit)> {
+        self.triangles.nearest(ray, 0.0, t_max, |_, _| true)
+    }
+
+    pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        self.triangles.occluded(ray, 0.0, t_max, |_, _| true)
+    }
+
+    /// Geometric normal of triangle `t`, facing the side `towards` comes from.
+    pub fn normal(&self, t: u32, towards: Vec3) -> Vec3 {
+        let [a, b, c] = self.corners[t as usize];
+        let n = (b - a).cross(c - a).normalize_or(Vec3::Y);
+        if n.dot(towards) < 0.0 { n } else { -n }
+    }
+}
+
+/// The light and how surfaces answer it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lighting {
+    pub sun: Sun,
+    pub shading: Shading,
+    /// Sky radiance behind everything; `None` leaves the sky transparent.
+    pub sky: Option<Vec3>,
+}
+
+pub struct Scene {
+    /// World position of the renderer frame's origin (the eye).
+    pub origin: DVec3,
+    pub texels: Vec<Texel>,
+    pub looks: Vec<Look>,
+    pub instances: Vec<Instance>,
+    /// Per texel: its grid box in model space (the union over levels).
+    pub model_boxes: Vec<Aabb>,
+    pub bvh: Bvh,
+    pub ground: Option<Ground>,
+    pub sun: Sun,
+    pub shading: Shading,
+    /// Sky radiance behind everything; `None` leaves the sky transparent.
+    pub sky: Option<Vec3>,
+}
+
+impl Scene {
+    pub fn new(
+        origin: DVec3,
+        texels: Vec<Texel>,
+        looks: Vec<Look>,
+        placed: &[Placed],
+        ground: Option<Mesh>,
+        lighting: Lighting,
+    ) -> Scene {
+        let Lighting { sun, shading, sky } = lighting;
+        let model_boxes: Vec<Aabb> = texels
+            .iter()
+            .map(|t| {
+                let o = t.origin();
+                let hi = t.levels.iter().fold(o, |hi, l| {
+                    hi.max(
+                        o + DVec3::new(l.dims[0] as f64, l.dims[1] as f64, l.dims[2] as f64)
+                            * l.cell,
+                    )
+                });
+                Aabb {
+                    lo: o.as_vec3(),
+                    hi: hi.as_vec3(),
+                }
+            })
+            .collect();
+        let instances: Vec<Instance> = placed
+            .iter()
+            .map(|p| {
+                let (sin, cos) = p.rotation.sin_cos();
+                Instance {
+                    look: p.look,
+                    position: (p.position - origin).as_vec3(),
+                    cos,
+                    sin,
+                    scale: p.scale,
+                }
+            })
+            .collect();
+        let boxes: Vec<Aabb> = instances
+            .iter()
+            .map(|i| {
+                let b = model_boxes[looks[i.look as usize].texel];
+                let corners: Vec<Vec3> = (0..8)
+                    .map(|k| {
+                        let m = Vec3::new(
+                            if k & 1 == 0 { b.lo.x } else { b.hi.x },
+                            if k & 2 == 0 { b.lo.y } else { b.hi.y },
+                            if k & 4 == 0 { b.lo.z } else { b.hi.z },
+                        );
+                        i.position + i.dir_to_world(m) * i.scale
+                    })
+                    .collect();
+                Aabb::of_points(&corners)
+            })
+            .collect();
+        Scene {
+            origin,
+            texels,
+            looks,
+            bvh: Bvh::build(&boxes),
+            instances,
+            model_boxes,
+            ground: ground.map(|m| Ground::new(m, origin)),
+            sun,
+            shading,
+            sky,
+        }
+    }
+}
