@@ -16,37 +16,7 @@ use texel_forest::terrain::Terrain;
 /// trees where it expects them.
 fn forest_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(
-        fixture("species/forest.json"),
-        dir.path().join("species.json"),
-    )
-    .unwrap();
-    for tree in [
-        "trees/conifer.glb",
-        "trees/broadleaf.gltf",
-        "trees/bare.glb",
-    ] {
-        let name = Path::new(tree)
-            .file_stem()
-            .unwrap()
-            .to_string_lossy()
-            .into_owned();
-        let out = format!("trees/{name}.texel");
-        let o = run(
-            &[
-                "bake",
-                fixture(tree).to_str().unwrap(),
-                "-o",
-                &out,
-                "--resolution",
-                "8",
-                "--fine",
-                "32",
-            ],
-            dir.path(),
-        );
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
+    species_with_texels(dir.path());
     dir
 }
 

@@ -10,36 +10,7 @@ use common::*;
 /// A small forest: the fixture trees baked coarse, placed on part of the fixture mountain.
 fn small_forest() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(
-        fixture("species/forest.json"),
-        dir.path().join("species.json"),
-    )
-    .unwrap();
-    for tree in [
-        "trees/conifer.glb",
-        "trees/broadleaf.gltf",
-        "trees/bare.glb",
-    ] {
-        let name = Path::new(tree)
-            .file_stem()
-            .unwrap()
-            .to_string_lossy()
-            .into_owned();
-        let o = run(
-            &[
-                "bake",
-                fixture(tree).to_str().unwrap(),
-                "-o",
-                &format!("trees/{name}.texel"),
-                "--resolution",
-                "8",
-                "--fine",
-                "32",
-            ],
-            dir.path(),
-        );
-        assert!(o.status.success(), "{}", stderr(&o));
-    }
+    species_with_texels(dir.path());
     let terrain = fixture("terrain/mountain.glb");
     let o = run(
         &[

@@ -213,6 +213,19 @@ impl<'a> Walk<'a> {
     fn retire(&mut self, t: f32) {
         self.active.retain(|a| a.exit > t);
     }
+
+    /// Brings the walk to `t` and returns where the next segment starts: `t` itself while
+    /// the ray is inside some instance, else the next instance's entry; `None` past `t_max`.
+    fn advance(&mut self, mut t: f32, t_max: f32) -> Option<f32> {
+        loop {
+            self.admit(t, t_max);
+            self.retire(t);
+            if !self.active.is_empty() {
+                return Some(t);
+            }
+            t = self.next_entry().filter(|&e| e < t_max)?;
+        }
+    }
 }
 
 /// Transmittance from `origin` along `dir` up to `t_max` through every texture and the
@@ -243,18 +256,8 @@ pub fn transmittance(
     let mut t = 0.0f32;
     let mut depth = 0.0f32;
     let mut segment = 0u64;
-    loop {
-        walk.admit(t, t_max);
-        walk.retire(t);
-        if walk.active.is_empty() {
-            match walk.next_entry() {
-                Some(e) if e < t_max => {
-                    t = e;
-                    continue;
-                }
-                _ => break,
-            }
-        }
+    while let Some(start) = walk.advance(t, t_max) {
+        t = start;
         let (end, ts) = segment_end(&walk, t, t_max, march.step, rng::hash3(key, segment, 0x73));
         segment += 1;
         let mut sigma = 0.0;
@@ -315,18 +318,8 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     let mut t = 0.0f32;
     let mut segment = 0u64;
     let sun = scene.sun;
-    loop {
-        walk.admit(t, t_max);
-        walk.retire(t);
-        if walk.active.is_empty() {
-            match walk.next_entry() {
-                Some(e) if e < t_max => {
-                    t = e;
-                    continue;
-                }
-                _ => break,
-            }
-        }
+    while let Some(start) = walk.advance(t, t_max) {
+        t = start;
         let (end, ts) = segment_end(&walk, t, t_max, march.step, rng::hash3(key, segment, 0x72));
         segment += 1;
         // Everything the instances containing the sample say, sigma-weighted.

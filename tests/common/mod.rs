@@ -56,3 +56,31 @@ pub fn assert_error(o: &Output, needles: &[&str]) {
         assert!(lines[0].contains(n), "{n:?} not in {err:?}");
     }
 }
+
+/// The fixture species file in `dir`, and beside it the fixture trees baked coarse (8 cells)
+/// where it expects them: the inputs of `place` and `render` tests.
+pub fn species_with_texels(dir: &Path) {
+    std::fs::copy(fixture("species/forest.json"), dir.join("species.json")).unwrap();
+    for tree in FIXTURE_TREES {
+        let name = Path::new(tree)
+            .file_stem()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        let out = format!("trees/{name}.texel");
+        let o = run(
+            &[
+                "bake",
+                fixture(tree).to_str().unwrap(),
+                "-o",
+                &out,
+                "--resolution",
+                "8",
+                "--fine",
+                "32",
+            ],
+            dir,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+}
