@@ -7,7 +7,7 @@
 //! and outside the grid the texture is empty. With that convention the optical depth along any
 //! axis-aligned line through cell centres is exactly the sum of `sigma x cell` over the cells.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use serde::Serialize;
 
 /// How the density channels relate to extinction.
@@ -63,41 +63,57 @@ impl Level {
         x + self.dims[0] * (y + self.dims[1] * z)
     }
 
-    /// Trilinear interpolation of a per-cell field at `p`, in cell units from the grid origin
-    /// (cell centres at i + 0.5). Clamp to edge inside the grid, zero outside.
-    pub fn interpolate<
-        T: Copy + Default + std::ops::Add<Output = T> + std::ops::Mul<f32, Output = T>,
-    >(
-        &self,
-        data: &[T],
-        p: DVec3,
-    ) -> T {
+    /// The eight cells around `c` (cell units from the grid origin, centres at i + 0.5) and
+    /// their trilinear weights, clamped to the edge inside the grid; `None` outside it.
+    #[inline]
+    pub fn trilinear(&self, c: Vec3) -> Option<([usize; 8], [f32; 8])> {
         let d = self.dims;
-        if p.x < 0.0
-            || p.y < 0.0
-            || p.z < 0.0
-            || p.x > d[0] as f64
-            || p.y > d[1] as f64
-            || p.z > d[2] as f64
-        {
-            return T::default();
+        let outside = c.x < 0.0
+            || c.y < 0.0
+            || c.z < 0.0
+            || c.x > d[0] as f32
+            || c.y > d[1] as f32
+            || c.z > d[2] as f32;
+        if outside || !c.is_finite() {
+            return None;
         }
-        let axis = |c: f64, n: usize| -> (usize, usize, f32) {
-            let x = (c - 0.5).clamp(0.0, (n - 1) as f64);
-            let i = (x.floor() as usize).min(n - 1);
-            let j = (i + 1).min(n - 1);
-            (i, j, (x - i as f64) as f32)
+        let axis = |v: f32, n: usize| -> (usize, usize, f32) {
+            let x = (v - 0.5).clamp(0.0, (n - 1) as f32);
+            let i = (x as usize).min(n - 1);
+            (i, (i + 1).min(n - 1), x - i as f32)
         };
-        let (x0, x1, fx) = axis(p.x, d[0]);
-        let (y0, y1, fy) = axis(p.y, d[1]);
-        let (z0, z1, fz) = axis(p.z, d[2]);
-        let at = |x, y, z| data[self.index(x, y, z)];
-        let lerp = |a: T, b: T, t: f32| a * (1.0 - t) + b * t;
-        let c00 = lerp(at(x0, y0, z0), at(x1, y0, z0), fx);
-        let c10 = lerp(at(x0, y1, z0), at(x1, y1, z0), fx);
-        let c01 = lerp(at(x0, y0, z1), at(x1, y0, z1), fx);
-        let c11 = lerp(at(x0, y1, z1), at(x1, y1, z1), fx);
-        lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz)
+        let (x0, x1, fx) = axis(c.x, d[0]);
+        let (y0, y1, fy) = axis(c.y, d[1]);
+        let (z0, z1, fz) = axis(c.z, d[2]);
+        let (sx, sxy) = (d[0], d[0] * d[1]);
+        let idx = [
+            x0 + sx * y0 + sxy * z0,
+            x1 + sx * y0 + sxy * z0,
+            x0 + sx * y1 + sxy * z0,
+            x1 + sx * y1 + sxy * z0,
+            x0 + sx * y0 + sxy * z1,
+            x1 + sx * y0 + sxy * z1,
+            x0 + sx * y1 + sxy * z1,
+            x1 + sx * y1 + sxy * z1,
+        ];
+        let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
+        let w = [
+            gx * gy * gz,
+            fx * gy * gz,
+            gx * fy * gz,
+            fx * fy * gz,
+            gx * gy * fz,
+            fx * gy * fz,
+            gx * fy * fz,
+            fx * fy * fz,
+        ];
+        Some((idx, w))
+    }
+
+    /// Trilinear interpolation of a per-cell field at `p` (cell units from the grid origin).
+    pub fn interpolate(&self, data: &[f32], p: DVec3) -> f32 {
+        self.trilinear(p.as_vec3())
+            .map_or(0.0, |(idx, w)| (0..8).map(|k| data[idx[k]] * w[k]).sum())
     }
 }
 

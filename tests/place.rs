@@ -24,20 +24,6 @@ fn mountain() -> PathBuf {
     fixture("terrain/mountain.glb")
 }
 
-fn place_cli(dir: &Path, extra: &[&str]) -> std::process::Output {
-    let terrain = mountain();
-    let mut args = vec![
-        "place",
-        terrain.to_str().unwrap(),
-        "--species",
-        "species.json",
-        "-o",
-        "forest.instances",
-    ];
-    args.extend_from_slice(extra);
-    run(&args, dir)
-}
-
 /// Every pair of trees is at least the larger of their two radii apart (as stored, to the
 /// centimetre). Checked with a grid of the largest radius, independently of `inspect`.
 fn assert_spacing(f: &instances::Forest) {
@@ -76,7 +62,7 @@ fn assert_spacing(f: &instances::Forest) {
 #[test]
 fn place_writes_a_forest_that_keeps_its_spacing_and_inspect_reads_it() {
     let dir = forest_dir();
-    let o = place_cli(dir.path(), &["--depfile", "forest.d"]);
+    let o = place_on_mountain(dir.path(), &["--depfile", "forest.d"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let f =
         instances::decode(&std::fs::read(dir.path().join("forest.instances")).unwrap()).unwrap();
@@ -170,7 +156,7 @@ fn the_same_seed_gives_the_same_bytes_for_any_thread_count() {
     let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
     assert_eq!(read("a.instances"), read("b.instances"), "1 thread vs 2");
     assert_eq!(read("b.instances"), read("c.instances"), "twice");
-    let o = place_cli(
+    let o = place_on_mountain(
         dir.path(),
         &["--seed", "2", "--region", "-200,-200,200,150"],
     );
@@ -368,9 +354,9 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
         dir.path(),
     );
     assert_error(&o, &["tree radii range", "spacing"]);
-    let o = place_cli(dir.path(), &["--region", "5000,5000,6000,6000"]);
+    let o = place_on_mountain(dir.path(), &["--region", "5000,5000,6000,6000"]);
     assert_error(&o, &["--region", "outside the terrain"]);
-    let o = place_cli(dir.path(), &["--region", "1,2,3"]);
+    let o = place_on_mountain(dir.path(), &["--region", "1,2,3"]);
     assert_error(&o, &["--region", "four numbers"]);
     // A terrain without triangles.
     let points = serde_json::json!({

@@ -11,19 +11,7 @@ use common::*;
 fn small_forest() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     species_with_texels(dir.path());
-    let terrain = fixture("terrain/mountain.glb");
-    let o = run(
-        &[
-            "place",
-            terrain.to_str().unwrap(),
-            "--species",
-            "species.json",
-            "-o",
-            "forest.instances",
-            "--region=-120,-120,120,120",
-        ],
-        dir.path(),
-    );
+    let o = place_on_mountain(dir.path(), &["--region=-120,-120,120,120"]);
     assert!(o.status.success(), "{}", stderr(&o));
     dir
 }

@@ -84,24 +84,22 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
             texel.levels.len() - 1
         );
     }
-    let image = if let Some(s) = &args.slice {
-        let (axis, index) = parse_slice(s)?;
-        let n = texel.levels[args.level].dims[axis];
-        if index >= n {
-            bail!(
-                "--slice {s}: level {} has cells 0 to {} along {}",
-                args.level,
-                n - 1,
-                ["x", "y", "z"][axis]
-            );
+    let image = match (&args.slice, args.projection) {
+        (Some(s), _) => {
+            let (axis, index) = parse_slice(s)?;
+            let n = texel.levels[args.level].dims[axis];
+            if index >= n {
+                bail!(
+                    "--slice {s}: level {} has cells 0 to {} along {}",
+                    args.level,
+                    n - 1,
+                    ["x", "y", "z"][axis]
+                );
+            }
+            pictures::slice(&texel, args.level, axis, index)
         }
-        pictures::slice(&texel, args.level, axis, index)
-    } else {
-        pictures::projection(
-            &texel,
-            args.level,
-            axis_index(args.projection.expect("checked above")),
-        )
+        (None, Some(axis)) => pictures::projection(&texel, args.level, axis_index(axis)),
+        (None, None) => bail!("--slice or --projection names the picture to draw"),
     };
     write_png(out, &image)
 }

@@ -307,8 +307,8 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     let ground_hit = scene
         .ground
         .as_ref()
-        .and_then(|g| g.nearest(&ray, f32::INFINITY));
-    let t_max = ground_hit.map_or(f32::INFINITY, |(_, h)| h.t);
+        .and_then(|g| g.nearest(&ray, f32::INFINITY).map(|h| (g, h)));
+    let t_max = ground_hit.map_or(f32::INFINITY, |(_, (_, h))| h.t);
     let mut walk = Walk::new(scene, ray, t_max, spread, 0.0, march.lod_bias);
     let mut out = Radiance {
         distance: f32::INFINITY,
@@ -380,11 +380,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     }
     out.canopy = 1.0 - transmittance;
     match ground_hit {
-        Some((tri, hit)) if transmittance >= march.cutoff => {
-            let g = scene
-                .ground
-                .as_ref()
-                .expect("a ground hit comes from the ground");
+        Some((g, (tri, hit))) if transmittance >= march.cutoff => {
             let p = ray.dir * hit.t;
             let normal = g.normal(tri, dir);
             let triangle = &g.mesh.triangles[tri as usize];

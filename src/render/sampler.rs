@@ -13,58 +13,10 @@ pub struct Fetch {
     pub albedo: [Vec3; 2],
 }
 
-/// The eight cells and weights around `c` (cell units from the grid origin), or `None`
-/// outside the grid.
-#[inline]
-fn corners(level: &Level, c: Vec3) -> Option<([usize; 8], [f32; 8])> {
-    let d = level.dims;
-    if c.x < 0.0
-        || c.y < 0.0
-        || c.z < 0.0
-        || c.x > d[0] as f32
-        || c.y > d[1] as f32
-        || c.z > d[2] as f32
-        || !c.is_finite()
-    {
-        return None;
-    }
-    let axis = |v: f32, n: usize| -> (usize, usize, f32) {
-        let x = (v - 0.5).clamp(0.0, (n - 1) as f32);
-        let i = (x as usize).min(n - 1);
-        (i, (i + 1).min(n - 1), x - i as f32)
-    };
-    let (x0, x1, fx) = axis(c.x, d[0]);
-    let (y0, y1, fy) = axis(c.y, d[1]);
-    let (z0, z1, fz) = axis(c.z, d[2]);
-    let (sx, sxy) = (d[0], d[0] * d[1]);
-    let idx = [
-        x0 + sx * y0 + sxy * z0,
-        x1 + sx * y0 + sxy * z0,
-        x0 + sx * y1 + sxy * z0,
-        x1 + sx * y1 + sxy * z0,
-        x0 + sx * y0 + sxy * z1,
-        x1 + sx * y0 + sxy * z1,
-        x0 + sx * y1 + sxy * z1,
-        x1 + sx * y1 + sxy * z1,
-    ];
-    let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
-    let w = [
-        gx * gy * gz,
-        fx * gy * gz,
-        gx * fy * gz,
-        fx * fy * gz,
-        gx * gy * fz,
-        fx * gy * fz,
-        gx * fy * fz,
-        fx * fy * fz,
-    ];
-    Some((idx, w))
-}
-
 /// Densities only (for shadow rays).
 #[inline]
 pub fn density(level: &Level, c: Vec3) -> [f32; 2] {
-    let Some((idx, w)) = corners(level, c) else {
+    let Some((idx, w)) = level.trilinear(c) else {
         return [0.0; 2];
     };
     std::array::from_fn(|p| (0..8).map(|k| level.density[p][idx[k]] * w[k]).sum())
@@ -73,7 +25,7 @@ pub fn density(level: &Level, c: Vec3) -> [f32; 2] {
 /// Every channel.
 #[inline]
 pub fn fetch(level: &Level, c: Vec3) -> Fetch {
-    let Some((idx, w)) = corners(level, c) else {
+    let Some((idx, w)) = level.trilinear(c) else {
         return Fetch::default();
     };
     let mut f = Fetch::default();
@@ -91,33 +43,39 @@ pub fn fetch(level: &Level, c: Vec3) -> Fetch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::DVec3;
 
+    /// A field linear in x, y and z is reproduced exactly between cell centres, held at the
+    /// edge value in the outer half cell, and empty outside; every channel agrees.
     #[test]
-    fn matches_the_reference_interpolation() {
-        let mut l = Level::empty([3, 2, 4], 0.5);
+    fn a_linear_field_is_interpolated_exactly_and_clamped_at_the_edges() {
+        let dims = [3, 2, 4];
+        let mut l = Level::empty(dims, 0.5);
+        let f = |x: f32, y: f32, z: f32| 1.0 + 2.0 * x - 0.5 * y + 0.25 * z;
         for i in 0..l.cell_count() {
-            l.density[0][i] = i as f32;
-            l.density[1][i] = (i * i) as f32 * 0.1;
+            let (x, y, z) = (
+                (i % 3) as f32 + 0.5,
+                ((i / 3) % 2) as f32 + 0.5,
+                (i / 6) as f32 + 0.5,
+            );
+            l.density[0][i] = f(x, y, z);
+            l.density[1][i] = 2.0 * f(x, y, z);
+            l.albedo[0][i] = [f(x, y, z); 3];
         }
         for p in [
-            Vec3::new(0.2, 0.3, 0.1),
-            Vec3::new(1.7, 1.2, 3.9),
-            Vec3::new(2.5, 0.5, 2.0),
+            Vec3::new(0.7, 0.9, 1.1),
+            Vec3::new(2.4, 1.5, 3.3),
+            Vec3::new(1.5, 0.5, 2.0),
         ] {
             let d = density(&l, p);
-            let r = [0, 1].map(|k| {
-                l.interpolate(
-                    &l.density[k],
-                    DVec3::new(p.x as f64, p.y as f64, p.z as f64),
-                )
-            });
-            assert!(
-                (d[0] - r[0]).abs() < 1e-4 && (d[1] - r[1]).abs() < 1e-3,
-                "{d:?} {r:?}"
-            );
-            assert_eq!(fetch(&l, p).density, d);
+            assert!((d[0] - f(p.x, p.y, p.z)).abs() < 1e-5, "{d:?} at {p}");
+            assert!((d[1] - 2.0 * d[0]).abs() < 1e-5);
+            let all = fetch(&l, p);
+            assert_eq!(all.density, d);
+            assert!((all.albedo[0].x - d[0]).abs() < 1e-5);
         }
+        // The outer half cell holds the edge value: x = 0.2 reads as x = 0.5.
+        assert!((density(&l, Vec3::new(0.2, 1.0, 2.0))[0] - f(0.5, 1.0, 2.0)).abs() < 1e-5);
         assert_eq!(density(&l, Vec3::new(-0.1, 1.0, 1.0)), [0.0; 2]);
+        assert_eq!(density(&l, Vec3::new(1.0, 2.1, 1.0)), [0.0; 2]);
     }
 }

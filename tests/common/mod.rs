@@ -84,3 +84,18 @@ pub fn species_with_texels(dir: &Path) {
         assert!(o.status.success(), "{}", stderr(&o));
     }
 }
+
+/// `texel place` on the fixture mountain with `dir`'s species file, to `forest.instances`.
+pub fn place_on_mountain(dir: &Path, extra: &[&str]) -> Output {
+    let terrain = fixture("terrain/mountain.glb");
+    let mut args = vec![
+        "place",
+        terrain.to_str().unwrap(),
+        "--species",
+        "species.json",
+        "-o",
+        "forest.instances",
+    ];
+    args.extend_from_slice(extra);
+    run(&args, dir)
+}
