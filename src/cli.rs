@@ -98,7 +98,7 @@ pub struct RenderArgs {
     /// Also write an sRGB preview over a sky, for people.
     #[arg(long, value_name = "FRAME.png")]
     pub preview: Option<PathBuf>,
-    /// Extra EXR layers: normal, albedo, canopy, species (comma-separated).
+    /// Extra EXR layers: normal, albedo, canopy, species, samples (comma-separated).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub aov: Vec<AovArg>,
     /// Write colour and AOVs as half floats (depth stays float).
@@ -113,6 +113,21 @@ pub struct RenderArgs {
     /// Transmittance at which a ray stops.
     #[arg(long, default_value_t = 1e-3)]
     pub cutoff: f32,
+    /// Share of a pixel below which a sample's shadow ray is cast only by Russian roulette
+    /// (unbiased; larger: faster, noisier; 0 casts them all).
+    #[arg(long, default_value_t = 0.05, value_name = "SHARE")]
+    pub shadow_share: f32,
+    /// Mip levels added to what the pixel footprint asks for (negative: sharper, slower).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_hyphen_values = true,
+        value_name = "LEVELS"
+    )]
+    pub lod_bias: f32,
+    /// Further mip levels for shadow rays.
+    #[arg(long, default_value_t = 1.0, value_name = "LEVELS")]
+    pub shadow_lod: f32,
     /// Random seed of the sampling.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -127,6 +142,8 @@ pub enum AovArg {
     Albedo,
     Canopy,
     Species,
+    /// Volume samples and shadow rays per pixel: where the time goes.
+    Samples,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -61,6 +61,22 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
     if !(args.step > 0.0 && args.step.is_finite()) {
         bail!("--step {} must be a positive number of cells", args.step);
     }
+    if !(0.0..1.0).contains(&args.cutoff) {
+        bail!("--cutoff {} must be a transmittance in [0, 1)", args.cutoff);
+    }
+    if !(0.0..=1.0).contains(&args.shadow_share) {
+        bail!(
+            "--shadow-share {} must be a share of a pixel in [0, 1]",
+            args.shadow_share
+        );
+    }
+    if !(args.lod_bias.is_finite() && args.shadow_lod.is_finite() && args.shadow_lod >= 0.0) {
+        bail!(
+            "--lod-bias {} and --shadow-lod {} must be finite (and --shadow-lod not negative)",
+            args.lod_bias,
+            args.shadow_lod
+        );
+    }
     if !(1.0..=366.0).contains(&args.day) {
         bail!("--day {} is not a day of the year (1 to 366)", args.day);
     }
@@ -227,7 +243,9 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
         march: March {
             step: args.step,
             cutoff: args.cutoff,
-            ..March::default()
+            lod_bias: args.lod_bias,
+            shadow_lod: args.shadow_lod,
+            shadow_share: args.shadow_share,
         },
         crop,
         seed: args.seed,
@@ -257,6 +275,7 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
         albedo: args.aov.contains(&AovArg::Albedo),
         canopy: args.aov.contains(&AovArg::Canopy),
         species: args.aov.contains(&AovArg::Species),
+        samples: args.aov.contains(&AovArg::Samples),
     };
     let exr = film
         .exr_bytes(
@@ -281,8 +300,9 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
     }
     if !quiet {
         let rays = pixels * args.spp as u64;
+        let (samples, shadow_rays) = film.work();
         eprintln!(
-            "texel: rendered {} trees, {}x{} ({} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s -> {} ({:.2} s in all)",
+            "texel: rendered {} trees, {}x{} ({} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel -> {} ({:.2} s in all)",
             forest.instances.len(),
             args.width,
             args.height,

@@ -13,6 +13,8 @@ pub struct Aovs {
     pub albedo: bool,
     pub canopy: bool,
     pub species: bool,
+    /// Where the time goes: volume samples and shadow rays per pixel.
+    pub samples: bool,
 }
 
 /// Pixels of a window of the frame, row-major.
@@ -32,6 +34,9 @@ pub struct Film {
     pub albedo: Vec<Vec3>,
     pub canopy: Vec<f32>,
     pub species: Vec<f32>,
+    /// Volume samples along the pixel's view rays (all of its samples), and shadow rays cast.
+    pub samples: Vec<f32>,
+    pub shadow_rays: Vec<f32>,
 }
 
 impl Film {
@@ -49,6 +54,8 @@ impl Film {
             albedo: vec![Vec3::ZERO; n],
             canopy: vec![0.0; n],
             species: vec![0.0; n],
+            samples: vec![0.0; n],
+            shadow_rays: vec![0.0; n],
         }
     }
 
@@ -103,6 +110,16 @@ impl Film {
                 FlatSamples::F32(self.species.clone()),
             ));
         }
+        if aovs.samples {
+            channels.push(AnyChannel::new(
+                "samples.view",
+                FlatSamples::F32(self.samples.clone()),
+            ));
+            channels.push(AnyChannel::new(
+                "samples.shadow",
+                FlatSamples::F32(self.shadow_rays.clone()),
+            ));
+        }
         let attributes = LayerAttributes {
             world_to_camera: Some(world_to_camera),
             world_to_normalized_device: Some(world_to_ndc),
@@ -131,6 +148,13 @@ impl Film {
     }
 
     /// An sRGB picture for people: the radiance composited over `sky` (linear), clipped.
+    /// Mean volume samples and shadow rays per pixel over the whole window.
+    pub fn work(&self) -> (f64, f64) {
+        let n = self.samples.len().max(1) as f64;
+        let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / n;
+        (mean(&self.samples), mean(&self.shadow_rays))
+    }
+
     pub fn preview(&self, sky: Vec3) -> image::RgbImage {
         image::RgbImage::from_fn(self.width, self.height, |x, y| {
             let p = self.rgba[(x + self.width * y) as usize];

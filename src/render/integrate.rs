@@ -38,6 +38,10 @@ pub struct March {
     pub lod_bias: f32,
     /// Extra mip levels for shadow rays, which need less detail.
     pub shadow_lod: f32,
+    /// Russian roulette on shadow rays: a sample whose share of the pixel (transmittance x
+    /// opacity) is below this casts its shadow ray with probability share / this, and counts
+    /// it that many times more. Unbiased; 0 casts every shadow ray.
+    pub shadow_share: f32,
 }
 
 impl Default for March {
@@ -47,6 +51,7 @@ impl Default for March {
             cutoff: 1e-3,
             lod_bias: 0.0,
             shadow_lod: 1.0,
+            shadow_share: 0.05,
         }
     }
 }
@@ -66,6 +71,9 @@ pub struct Radiance {
     pub canopy: f32,
     /// Species index + 1 of the densest tree at the surface, 0 for terrain or sky.
     pub species: f32,
+    /// Work done: volume samples along the ray, and shadow rays cast from it.
+    pub samples: u32,
+    pub shadow_rays: u32,
 }
 
 /// An instance the ray is inside of, with its ray in the texture's cell coordinates.
@@ -81,6 +89,30 @@ struct Active {
     sigma_scale: f32,
     /// Segment length in this texture (m).
     step: f32,
+}
+
+impl Active {
+    /// Instance `i` as `ray` meets it (leaving at `exit`), where the ray's footprint is
+    /// `footprint` metres: the mip level whose cells match it, and the ray in that level's cells.
+    fn new(scene: &Scene, i: u32, ray: &Ray, exit: f32, footprint: f32, lod_bias: f32) -> Active {
+        let inst: &Instance = &scene.instances[i as usize];
+        let look = &scene.looks[inst.look as usize];
+        let texel = &scene.texels[look.texel];
+        let cell0 = texel.levels[0].cell as f32;
+        let wanted = (footprint / inst.scale / cell0).max(1.0).log2() + lod_bias;
+        let level = (wanted.max(0.0) as usize).min(texel.levels.len() - 1);
+        let cell = texel.levels[level].cell as f32;
+        let origin = texel.origin().as_vec3();
+        Active {
+            instance: i,
+            exit,
+            level,
+            c0: (inst.to_model(ray.origin) - origin) / cell,
+            dc: inst.dir_to_model(ray.dir) / cell,
+            sigma_scale: texel.info.extinction_scale as f32 / inst.scale,
+            step: cell * inst.scale,
+        }
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -161,7 +193,8 @@ impl<'a> Walk<'a> {
                     }
                     Some(NodeContent::Leaf(items)) => {
                         for &i in items {
-                            if let Some((e, x)) = self.instance_interval(i, t_max) {
+                            if let Some((e, x)) = instance_interval(self.scene, &self.ray, i, t_max)
+                            {
                                 self.heap.push(Reverse((key(e), Item::Instance(i, key(x)))));
                             }
                         }
@@ -175,39 +208,16 @@ impl<'a> Walk<'a> {
         }
     }
 
-    /// The part of the ray inside instance `i`'s oriented box.
-    fn instance_interval(&self, i: u32, t_max: f32) -> Option<(f32, f32)> {
-        let inst = &self.scene.instances[i as usize];
-        let b = &self.scene.model_boxes[self.scene.looks[inst.look as usize].texel];
-        let local = Ray {
-            origin: inst.to_model(self.ray.origin),
-            dir: inst.dir_to_model(self.ray.dir),
-        };
-        b.intersect(&local, local.dir.recip(), 0.0, t_max)
-    }
-
     fn activate(&mut self, i: u32, enter: f32, exit: f32) {
-        let inst: &Instance = &self.scene.instances[i as usize];
-        let look = &self.scene.looks[inst.look as usize];
-        let texel = &self.scene.texels[look.texel];
-        // The mip level whose cells match the ray's footprint where it enters.
-        let footprint = (enter * self.spread + self.base) / inst.scale;
-        let cell0 = texel.levels[0].cell as f32;
-        let wanted = (footprint / cell0).max(1.0).log2() + self.lod_bias;
-        let level = (wanted.max(0.0) as usize).min(texel.levels.len() - 1);
-        let cell = texel.levels[level].cell as f32;
-        let origin = texel.origin().as_vec3();
-        let o = inst.to_model(self.ray.origin);
-        let d = inst.dir_to_model(self.ray.dir);
-        self.active.push(Active {
-            instance: i,
+        let a = Active::new(
+            self.scene,
+            i,
+            &self.ray,
             exit,
-            level,
-            c0: (o - origin) / cell,
-            dc: d / cell,
-            sigma_scale: texel.info.extinction_scale as f32 / inst.scale,
-            step: cell * inst.scale,
-        });
+            enter * self.spread + self.base,
+            self.lod_bias,
+        );
+        self.active.push(a);
     }
 
     fn retire(&mut self, t: f32) {
@@ -230,6 +240,11 @@ impl<'a> Walk<'a> {
 
 /// Transmittance from `origin` along `dir` up to `t_max` through every texture and the
 /// terrain. `footprint` (m) picks the texture level.
+///
+/// Optical depth is a sum over the instances the ray crosses, and a sum does not care about
+/// order: so unlike a view ray, a shadow ray needs no front-to-back walk. It visits the
+/// instances in plain traversal order, marches each box on its own, and stops as soon as the
+/// depth so far already puts the transmittance below the cut-off.
 pub fn transmittance(
     scene: &Scene,
     origin: Vec3,
@@ -245,39 +260,49 @@ pub fn transmittance(
     {
         return 0.0;
     }
-    let mut walk = Walk::new(
-        scene,
-        ray,
-        t_max,
-        0.0,
-        footprint,
-        march.lod_bias + march.shadow_lod,
-    );
-    let mut t = 0.0f32;
+    let opaque = -march.cutoff.ln();
+    let lod_bias = march.lod_bias + march.shadow_lod;
     let mut depth = 0.0f32;
-    let mut segment = 0u64;
-    while let Some(start) = walk.advance(t, t_max) {
-        t = start;
-        let (end, ts) = segment_end(&walk, t, t_max, march.step, rng::hash3(key, segment, 0x73));
-        segment += 1;
-        let mut sigma = 0.0;
-        for a in &walk.active {
-            let d = sampler::density(
-                &scene.texels
-                    [scene.looks[scene.instances[a.instance as usize].look as usize].texel]
-                    .levels[a.level],
-                a.c0 + a.dc * ts,
-            );
-            let foliage = scene.looks[scene.instances[a.instance as usize].look as usize].foliage;
-            sigma += a.sigma_scale * (d[0] + foliage * d[1]);
+    scene.bvh.traverse(&ray, 0.0, t_max, |i, _| {
+        let (enter, exit) = instance_interval(scene, &ray, i, t_max)?;
+        let a = Active::new(scene, i, &ray, exit, footprint, lod_bias);
+        let texel = &scene.texels[scene.looks[scene.instances[i as usize].look as usize].texel];
+        let level = &texel.levels[a.level];
+        let foliage = scene.looks[scene.instances[i as usize].look as usize].foliage;
+        let length = a.step * march.step;
+        let mut t = enter;
+        let mut segment = 0u64;
+        while t < exit {
+            // A step below t's precision would never advance: take the rest in one.
+            let end = if t + length > t {
+                (t + length).min(exit)
+            } else {
+                exit
+            };
+            let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
+            let d = sampler::density(level, a.c0 + a.dc * ts);
+            depth += a.sigma_scale * (d[0] + foliage * d[1]) * (end - t);
+            if depth > opaque {
+                // Stops the traversal: nothing further can make the light visible.
+                return Some(0.0);
+            }
+            segment += 1;
+            t = end;
         }
-        depth += sigma * (end - t);
-        if (-depth).exp() < march.cutoff {
-            return 0.0;
-        }
-        t = end;
-    }
-    (-depth).exp()
+        None
+    });
+    if depth > opaque { 0.0 } else { (-depth).exp() }
+}
+
+/// The part of `ray` inside instance `i`'s oriented box, up to `t_max`.
+fn instance_interval(scene: &Scene, ray: &Ray, i: u32, t_max: f32) -> Option<(f32, f32)> {
+    let inst = &scene.instances[i as usize];
+    let b = &scene.model_boxes[scene.looks[inst.look as usize].texel];
+    let local = Ray {
+        origin: inst.to_model(ray.origin),
+        dir: inst.dir_to_model(ray.dir),
+    };
+    b.intersect(&local, local.dir.recip(), 0.0, t_max)
 }
 
 /// The end of the segment starting at `t` (one step of the finest active texture, cut at the
@@ -322,6 +347,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         t = start;
         let (end, ts) = segment_end(&walk, t, t_max, march.step, rng::hash3(key, segment, 0x72));
         segment += 1;
+        out.samples += 1;
         // Everything the instances containing the sample say, sigma-weighted.
         let (mut sigma, mut albedo, mut gradient, mut densest) =
             (0.0f32, Vec3::ZERO, Vec3::ZERO, (0.0f32, 0u16));
@@ -358,14 +384,21 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         }
         let albedo = albedo / sigma;
         let normal = (-gradient).try_normalize();
+        let opacity = 1.0 - (-sigma * length).exp();
+        let share = transmittance * opacity;
         // The shadow ray leaves from one cell towards the sun: the sample stands for the
         // surface layer it lies in, which must not shadow itself (an opaque volume would
         // otherwise shade as Lommel-Seeliger's law, half as bright as a surface lit head-on).
         let p = ray.dir * ts + sun.direction * cell_here;
-        let lit = sun_light(scene, p, t * spread, rng::hash3(key, segment, 0x6c), march);
+        let lit = roulette(
+            share,
+            march,
+            rng::hash3(key, segment, 0x7272),
+            &mut out.shadow_rays,
+            || sun_light(scene, p, t * spread, rng::hash3(key, segment, 0x6c), march),
+        );
         let source = shade(scene, albedo, normal, lit, -dir);
-        let opacity = 1.0 - (-sigma * length).exp();
-        out.rgb += source * (transmittance * opacity);
+        out.rgb += source * share;
         let before = transmittance;
         transmittance *= 1.0 - opacity;
         if before > 0.5 && transmittance <= 0.5 {
@@ -387,12 +420,20 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
             let albedo = g.mesh.base_color(triangle, hit.w).truncate();
             let lift = p + normal * (1e-4 * hit.t.max(1.0));
             let lit = if normal.dot(sun.direction) > 0.0 {
-                sun_light(
-                    scene,
-                    lift,
-                    hit.t * spread,
-                    rng::hash3(key, 0x67, 0x72),
+                roulette(
+                    transmittance,
                     march,
+                    rng::hash3(key, 0x67, 0x7272),
+                    &mut out.shadow_rays,
+                    || {
+                        sun_light(
+                            scene,
+                            lift,
+                            hit.t * spread,
+                            rng::hash3(key, 0x67, 0x72),
+                            march,
+                        )
+                    },
                 )
             } else {
                 0.0
@@ -419,6 +460,31 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         }
     }
     out
+}
+
+/// The light `light()` finds, for a sample with `share` of the pixel: always computed for a
+/// large share, else with probability share / `march.shadow_share` and divided by it, so
+/// that its expectation is unchanged and a skipped shadow ray costs nothing. `cast` counts
+/// the shadow rays.
+fn roulette(
+    share: f32,
+    march: &March,
+    key: u64,
+    cast: &mut u32,
+    light: impl FnOnce() -> f32,
+) -> f32 {
+    if share >= march.shadow_share {
+        *cast += 1;
+        return light();
+    }
+    // Any probability works if it is the one divided by; a floor keeps 1/p finite.
+    let p = (share / march.shadow_share).max(1e-6);
+    if (rng::unit(key) as f32) < p {
+        *cast += 1;
+        light() / p
+    } else {
+        0.0
+    }
 }
 
 /// I(t): the sun's radiance scale, irradiance / pi, times the transmittance towards it.

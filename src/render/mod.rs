@@ -83,6 +83,8 @@ pub fn render(
         film.albedo[i] = p.radiance.albedo;
         film.canopy[i] = p.radiance.canopy;
         film.species[i] = p.radiance.species;
+        film.samples[i] = p.samples;
+        film.shadow_rays[i] = p.shadow_rays;
     }
     film
 }
@@ -92,6 +94,9 @@ struct Pixel {
     z: f32,
     /// The AOVs of the pixel's first sample.
     radiance: Radiance,
+    /// Work for the whole pixel, all its samples.
+    samples: f32,
+    shadow_rays: f32,
 }
 
 /// The mean of `spp` samples, jittered within a `strata` x `strata` grid over the pixel.
@@ -106,6 +111,7 @@ fn pixel(
 ) -> Pixel {
     let pixel_key = rng::hash3(settings.seed, ((y as u64) << 32) | x as u64, 0x0070_6978);
     let (mut rgba, mut first, mut z) = ([0.0f32; 4], None, f32::INFINITY);
+    let (mut samples, mut shadow_rays) = (0u64, 0u64);
     for s in 0..settings.spp {
         let key = rng::hash3(pixel_key, s as u64, 0);
         let (sx, sy) = ((s % strata) as f64, ((s / strata) % strata) as f64);
@@ -117,6 +123,8 @@ fn pixel(
             rgba[c] += r.rgb[c];
         }
         rgba[3] += 1.0 - r.transmittance;
+        samples += u64::from(r.samples);
+        shadow_rays += u64::from(r.shadow_rays);
         if r.distance.is_finite() {
             z = z.min(camera.depth(dir * r.distance));
         }
@@ -131,5 +139,7 @@ fn pixel(
         rgba,
         z,
         radiance: first.unwrap_or_default(),
+        samples: samples as f32,
+        shadow_rays: shadow_rays as f32,
     }
 }

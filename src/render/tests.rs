@@ -243,9 +243,9 @@ fn a_ground_quad_under_a_known_slab_gets_the_predicted_transmittance() {
     assert!((r.rgb[0] - 0.4).abs() < 1e-3, "{}", r.rgb[0]);
 }
 
-#[test]
-fn the_stratified_estimator_converges_as_samples_grow() {
-    // A ball of fog: density falling off from the centre, so one sample per cell is noisy.
+/// A ball of fog: density falling off from the centre, so one sample per cell is noisy, seen
+/// whole by a 24 x 24 camera in afternoon light.
+fn fog_ball() -> (Scene, Camera) {
     let n = 16;
     let mut l = Level::empty([n; 3], 0.25);
     for i in 0..l.cell_count() {
@@ -271,6 +271,12 @@ fn the_stratified_estimator_converges_as_samples_grow() {
         },
     );
     let camera = Camera::look_at(scene.origin, DVec3::ZERO, 30.0, 24, 24).unwrap();
+    (scene, camera)
+}
+
+#[test]
+fn the_stratified_estimator_converges_as_samples_grow() {
+    let (scene, camera) = fog_ball();
     let image = |spp: u32| {
         render(
             &scene,
@@ -297,6 +303,46 @@ fn the_stratified_estimator_converges_as_samples_grow() {
     println!("rms error at 1, 4, 16 spp: {errors:?}");
     assert!(errors[0] > errors[1] && errors[1] > errors[2], "{errors:?}");
     assert!(errors[2] < 0.5 * errors[0], "{errors:?}");
+}
+
+#[test]
+fn russian_roulette_on_shadow_rays_saves_them_without_bias() {
+    let (scene, camera) = fog_ball();
+    let image = |shadow_share: f32| {
+        render(
+            &scene,
+            &camera,
+            &RenderSettings {
+                spp: 256,
+                march: March {
+                    shadow_share,
+                    ..March::default()
+                },
+                ..RenderSettings::default()
+            },
+            &|_| {},
+        )
+    };
+    let (every, roulette) = (image(0.0), image(1.0));
+    let total = |f: &super::Film| f.rgba.iter().map(|p| f64::from(p[1])).sum::<f64>();
+    let (a, b) = (total(&every), total(&roulette));
+    println!("green summed over the image: {a} with every shadow ray, {b} with roulette");
+    assert!((a - b).abs() < 0.01 * a, "{a} vs {b}");
+    let rays = |f: &super::Film| f.work().1;
+    assert!(
+        rays(&roulette) < 0.5 * rays(&every),
+        "{} vs {}",
+        rays(&roulette),
+        rays(&every)
+    );
+    // Alpha does not depend on shadow rays at all.
+    assert!(
+        every
+            .rgba
+            .iter()
+            .zip(&roulette.rgba)
+            .all(|(p, q)| p[3] == q[3])
+    );
 }
 
 /// Every hard case renders finite pixels with alpha in [0, 1].
