@@ -104,6 +104,21 @@ fn renders_an_exr_that_openexr_reads_with_depth_aovs_and_camera_matrices() {
         r.iter().zip(&a).all(|(r, a)| *r <= a * 1.5 + 1e-6),
         "premultiplied by alpha"
     );
+    // OpenEXR's own reader takes it too, where its tools are installed (`.ci/run` installs
+    // them; elsewhere this part is skipped).
+    match std::process::Command::new("exrheader")
+        .arg(dir.path().join("frame.exr"))
+        .output()
+    {
+        Ok(o) => {
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert!(o.status.success(), "exrheader: {}", stderr(&o));
+            for needle in ["worldToCamera", "worldToNDC", "normal.X", "species.id"] {
+                assert!(text.contains(needle), "{needle} missing from {text}");
+            }
+        }
+        Err(_) => eprintln!("exrheader not installed: OpenEXR's own reader not tried"),
+    }
     let preview = image::open(dir.path().join("frame.png")).unwrap();
     assert_eq!((preview.width(), preview.height()), (64, 36));
     let dep = std::fs::read_to_string(dir.path().join("frame.d")).unwrap();
@@ -164,6 +179,101 @@ fn a_crop_equals_its_region_of_the_full_frame_and_threads_do_not_matter() {
             }
         }
     }
+}
+
+/// The R, G, B, A values of an EXR and its worldToCamera matrix.
+fn rgba_and_view(path: &Path) -> (Vec<f32>, [f32; 16]) {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let layer = &image.layer_data[0];
+    let channel = |name: &str| -> Vec<f32> {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .unwrap()
+            .sample_data
+            .values_as_f32()
+            .collect()
+    };
+    let values = ["R", "G", "B", "A"]
+        .iter()
+        .flat_map(|c| channel(c))
+        .collect();
+    (values, layer.attributes.world_to_camera.unwrap())
+}
+
+#[test]
+fn a_gltf_camera_node_and_directional_light_stand_in_for_the_flags() {
+    let dir = small_forest();
+    // The view of VIEW with a 40 degree field, and the sun at azimuth 120, elevation 35, as a
+    // glTF camera node and KHR_lights_punctual light (a file with no mesh at all).
+    let (eye, target) = (
+        glam::Vec3::new(-150.0, 450.0, 260.0),
+        glam::Vec3::new(0.0, 300.0, 0.0),
+    );
+    // A glTF camera looks down its -Z with +Y up.
+    let forward = (target - eye).normalize();
+    let right = forward.cross(glam::Vec3::Y).normalize();
+    let look = glam::Quat::from_mat3(&glam::Mat3::from_cols(
+        right,
+        right.cross(forward),
+        -forward,
+    ));
+    let (az, el) = (120f32.to_radians(), 35f32.to_radians());
+    let towards = glam::Vec3::new(az.sin() * el.cos(), el.sin(), -az.cos() * el.cos());
+    let sun = glam::Quat::from_rotation_arc(glam::Vec3::Z, towards);
+    let doc = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": { "KHR_lights_punctual": { "lights": [{ "type": "directional" }] } },
+        "scenes": [{ "nodes": [0, 1] }],
+        "nodes": [
+            { "camera": 0, "translation": eye.to_array(), "rotation": look.to_array() },
+            { "extensions": { "KHR_lights_punctual": { "light": 0 } }, "rotation": sun.to_array() },
+        ],
+        "cameras": [{ "type": "perspective", "name": "overlook",
+                      "perspective": { "yfov": 40f32.to_radians(), "znear": 0.1 } }],
+    });
+    std::fs::write(dir.path().join("view.gltf"), doc.to_string()).unwrap();
+    let o = run(
+        &[
+            "render",
+            "forest.instances",
+            "--camera-file",
+            "view.gltf",
+            "--camera",
+            "overlook",
+            "--width",
+            "64",
+            "--height",
+            "36",
+            "-o",
+            "gltf.exr",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render(dir.path(), &["--sun", "120,35", "-o", "flags.exr"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (a, va) = rgba_and_view(&dir.path().join("gltf.exr"));
+    let (b, vb) = rgba_and_view(&dir.path().join("flags.exr"));
+    for (x, y) in va.iter().zip(&vb) {
+        assert!((x - y).abs() < 1e-3 * (1.0 + y.abs()), "{va:?} vs {vb:?}");
+    }
+    // The same view and light, up to rounding in how the rays are made.
+    let mean = b.iter().map(|v| v.abs()).sum::<f32>() / b.len() as f32;
+    let diff = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).sum::<f32>() / b.len() as f32;
+    assert!(
+        diff < 0.01 * mean,
+        "mean difference {diff} against mean value {mean}"
+    );
+    // A different sun is visibly different: the test can tell.
+    let o = render(dir.path(), &["--sun", "300,35", "-o", "other.exr"]);
+    assert!(o.status.success());
+    let (c, _) = rgba_and_view(&dir.path().join("other.exr"));
+    let other = c.iter().zip(&b).map(|(x, y)| (x - y).abs()).sum::<f32>() / b.len() as f32;
+    assert!(other > 10.0 * diff.max(1e-4 * mean), "{other} vs {diff}");
 }
 
 #[test]

@@ -30,7 +30,7 @@ pub fn run(args: &BakeArgs, quiet: bool) -> anyhow::Result<()> {
         anyhow::bail!("--gamma applies to --density occupancy only");
     }
     settings.validate()?;
-    let model = import::load(&args.input)?;
+    let model = import::load_surface(&args.input, "a tree")?;
     for w in &model.warnings {
         super::warn(w);
     }

@@ -121,7 +121,7 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
         &forest.info.terrain[0].sha256,
         &args.instances,
     )?;
-    let terrain = import::load(&terrain_path)?;
+    let terrain = import::load_surface(&terrain_path, "a terrain")?;
     dependencies.extend(terrain.sources.iter().map(|s| s.path.clone()));
 
     let mut texels: Vec<Texel> = Vec::new();

@@ -219,17 +219,11 @@ impl ImportError {
 }
 
 /// Reads a `.gltf` (with its external or embedded buffers and images) or a `.glb` file and
-/// flattens the default scene into one mesh in the model's space.
+/// flattens the default scene into one mesh in the model's space. The scene may hold no
+/// triangles at all (a file of cameras and lights); see [`load_surface`].
 pub fn load(path: &Path) -> Result<Model, ImportError> {
     let mut doc = document::Document::open(path)?;
     let (mesh, cameras, suns) = scene::flatten(&mut doc)?;
-    if mesh.triangles.is_empty() {
-        return Err(ImportError::invalid(
-            path,
-            "",
-            "the default scene has no triangles (nothing to bake)",
-        ));
-    }
     Ok(Model {
         mesh,
         cameras,
@@ -237,4 +231,17 @@ pub fn load(path: &Path) -> Result<Model, ImportError> {
         sources: doc.sources,
         warnings: doc.warnings,
     })
+}
+
+/// [`load`] for a file that must hold a surface; `purpose` says what it is for.
+pub fn load_surface(path: &Path, purpose: &str) -> Result<Model, ImportError> {
+    let model = load(path)?;
+    if model.mesh.triangles.is_empty() {
+        return Err(ImportError::invalid(
+            path,
+            "",
+            format!("the default scene has no triangles (nothing to use as {purpose})"),
+        ));
+    }
+    Ok(model)
 }

@@ -236,3 +236,58 @@ fn points_and_lines_are_skipped_with_a_warning() {
     assert_eq!(model.warnings.len(), 1);
     assert!(model.warnings[0].contains("Lines"), "{:?}", model.warnings);
 }
+
+#[test]
+fn camera_nodes_and_directional_lights_are_placed_by_their_world_transforms() {
+    let (mut bin, mut views) = (vec![], vec![]);
+    let v = view(&mut bin, &mut views, &f32s(TETRA.as_flattened()));
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let doc = json!({
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": { "KHR_lights_punctual": { "lights": [
+            { "type": "point", "name": "lamp" },
+            { "type": "directional", "name": "sun", "intensity": 3.0, "color": [1.0, 0.9, 0.8] },
+        ] } },
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [
+            { "translation": [100.0, 50.0, 0.0], "children": [1, 2, 3, 4] },
+            { "mesh": 0 },
+            // Turned 90 degrees about +Y: looks along -X.
+            { "camera": 0, "translation": [0.0, 10.0, 0.0], "rotation": [0.0, h, 0.0, h] },
+            // Turned -90 degrees about +X: shines straight down, so the sun is at the zenith.
+            { "extensions": { "KHR_lights_punctual": { "light": 1 } }, "rotation": [-h, 0.0, 0.0, h] },
+            // Point lights are not suns.
+            { "extensions": { "KHR_lights_punctual": { "light": 0 } } },
+        ],
+        "cameras": [{ "type": "perspective", "name": "overlook",
+                      "perspective": { "yfov": 0.6, "znear": 0.1 } }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "accessors": [{ "bufferView": v, "componentType": 5126, "count": 12, "type": "VEC3" }],
+        "bufferViews": views,
+    });
+    let m = import(doc, &bin);
+    assert_eq!(m.cameras.len(), 1);
+    let c = &m.cameras[0];
+    assert_eq!(c.name, "overlook");
+    assert!(
+        (c.eye - glam::DVec3::new(100.0, 60.0, 0.0)).length() < 1e-9,
+        "{}",
+        c.eye
+    );
+    assert!(
+        (c.forward - glam::DVec3::NEG_X).length() < 1e-6,
+        "{}",
+        c.forward
+    );
+    assert!((c.up - glam::DVec3::Y).length() < 1e-6, "{}", c.up);
+    assert!((c.yfov - 0.6).abs() < 1e-6);
+    assert_eq!(m.suns.len(), 1);
+    let s = &m.suns[0];
+    assert_eq!(s.name, "sun");
+    assert!(
+        (s.towards - glam::DVec3::Y).length() < 1e-6,
+        "{}",
+        s.towards
+    );
+    assert_eq!(s.intensity, 3.0);
+}

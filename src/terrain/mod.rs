@@ -33,7 +33,7 @@ pub enum TerrainError {
 
 impl Terrain {
     pub fn load(path: &Path) -> Result<Terrain, TerrainError> {
-        let model = import::load(path)?;
+        let model = import::load_surface(path, "a terrain")?;
         Ok(Terrain::from_model(model))
     }
 
