@@ -12,10 +12,12 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     about = "Forest scenery from volumetric tree textures",
     long_about = "Forest scenery from volumetric tree textures.\n\n\
         Stages talk through files: `bake` turns a glTF tree into a .texel 3D texture, \
-        `place` grows a forest of them on a terrain (.instances), `inspect` shows any \
+        `place` grows a forest of them on a terrain (.instances), `render` ray traces it to \
+        OpenEXR, `compare` measures one render against another, `inspect` shows any \
         intermediate file to a person.\n\n\
         Exit status: 0 on success, 1 when an input or output is bad (the message names the \
-        file and the problem), 2 for a malformed command line."
+        file and the problem), 2 for a malformed command line, 3 when `compare --fail-above` \
+        finds the images too different."
 )]
 pub struct Cli {
     /// Worker threads (default: one per core). Results are identical for any number.
@@ -40,6 +42,34 @@ pub enum Command {
     Render(RenderArgs),
     /// Describe a texel-forest file, as text, JSON or pictures.
     Inspect(InspectArgs),
+    /// Measure the error of one render against a reference render.
+    Compare(CompareArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// The render to judge (OpenEXR with R, G, B, A).
+    #[arg(value_name = "A.exr")]
+    pub image: PathBuf,
+    /// The reference (OpenEXR with R, G, B, A, the same size and window).
+    #[arg(value_name = "REFERENCE.exr")]
+    pub reference: PathBuf,
+    /// Also measure inside a mask: a PNG (pixels brighter than half inside) or an OpenEXR
+    /// (alpha above one half inside), the size of the images.
+    #[arg(long, value_name = "FILE")]
+    pub mask: Option<PathBuf>,
+    /// Print the measures as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Write a false-colour picture of each pixel's largest error (PNG).
+    #[arg(long, value_name = "DIFF.png")]
+    pub heatmap: Option<PathBuf>,
+    /// The error the heatmap's brightest colour stands for (default: the largest error).
+    #[arg(long, value_name = "ERROR", requires = "heatmap")]
+    pub scale: Option<f32>,
+    /// Exit with status 3 when the colour RMSE exceeds this (for build systems and tests).
+    #[arg(long, value_name = "RMSE")]
+    pub fail_above: Option<f64>,
 }
 
 #[derive(Args, Debug)]

@@ -9,6 +9,7 @@
 
 pub mod bake;
 pub mod color;
+pub mod compare;
 pub mod corpus;
 pub mod formats;
 pub mod geom;

@@ -14,7 +14,11 @@ fn main() -> std::process::ExitCode {
             let message: Vec<String> = e.chain().map(|c| c.to_string()).collect();
             // Build logs and scripts expect one line per error.
             eprintln!("texel: error: {}", message.join(": ").replace('\n', " "));
-            std::process::ExitCode::FAILURE
+            if e.is::<commands::TooDifferent>() {
+                std::process::ExitCode::from(commands::TOO_DIFFERENT)
+            } else {
+                std::process::ExitCode::FAILURE
+            }
         }
     }
 }

@@ -1,9 +1,12 @@
 //! One module per subcommand: read the inputs, call the library, write the outputs.
 
 mod bake;
+mod compare;
 mod inspect;
 mod place;
 mod render;
+
+pub use compare::{TOO_DIFFERENT, TooDifferent};
 
 use crate::cli::{Cli, Command};
 
@@ -21,6 +24,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Place(args) => place::run(&args, cli.quiet),
         Command::Render(args) => render::run(&args, cli.quiet),
         Command::Inspect(args) => inspect::run(&args),
+        Command::Compare(args) => compare::run(&args),
     }
 }
 

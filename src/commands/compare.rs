@@ -1,0 +1,133 @@
+//! `texel compare`: the error of a render against a reference, as text or JSON, with an
+//! optional false-colour picture of where it lies.
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+
+use texel_forest::compare::{Comparison, Metrics, Rgba, check_same_window, compare, heatmap};
+use texel_forest::inspect::pictures::png_bytes;
+use texel_forest::output::write_atomic;
+
+use crate::cli::CompareArgs;
+
+/// Status when `--fail-above` is exceeded: distinct from 1 (bad input) and 2 (bad flags).
+pub const TOO_DIFFERENT: u8 = 3;
+
+/// Returned (as an error) when the images differ by more than `--fail-above` allows.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct TooDifferent(pub String);
+
+/// Which pixels (by index) a mask file marks as inside.
+fn read_mask(path: &Path, like: &Rgba) -> anyhow::Result<Vec<bool>> {
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let (width, height, inside) = if is_exr {
+        let m = Rgba::read(path)?;
+        let inside = m.pixels.iter().map(|p| p[3] > 0.5).collect();
+        (m.width, m.height, inside)
+    } else {
+        let m = image::open(path)
+            .with_context(|| format!("{}: cannot read the mask as a picture", path.display()))?
+            .to_luma8();
+        let inside = m.pixels().map(|p| p.0[0] > 127).collect();
+        (m.width() as usize, m.height() as usize, inside)
+    };
+    if (width, height) != (like.width, like.height) {
+        bail!(
+            "{}: the mask is {width}x{height} but the images are {}x{}",
+            path.display(),
+            like.width,
+            like.height
+        );
+    }
+    Ok(inside)
+}
+
+fn metrics_line(name: &str, m: &Metrics) -> String {
+    format!(
+        "  {name:<6} {:>11.6} {:>11.6} {:>11.6} {:>11.6} at ({}, {})\n",
+        m.rmse, m.relative_mse, m.mean_absolute, m.max, m.max_at[0], m.max_at[1]
+    )
+}
+
+fn block(title: &str, c: &Comparison) -> String {
+    let mut s = format!("{title}: {} pixels", c.pixels);
+    if c.non_finite > 0 {
+        s += &format!(", {} of them not finite (left out)", c.non_finite);
+    }
+    s += "\n           rmse   rel. mse   mean |e|     max |e|\n";
+    s += &metrics_line("rgb", &c.rgb);
+    s += &metrics_line("alpha", &c.alpha);
+    s
+}
+
+pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
+    let a = Rgba::read(&args.image)?;
+    let b = Rgba::read(&args.reference)?;
+    check_same_window(&a, &args.image, &b, &args.reference)?;
+    let all = compare(&a, &b, |_| true);
+    let masked = match &args.mask {
+        Some(path) => {
+            let inside = read_mask(path, &a)?;
+            Some(compare(&a, &b, |i| inside[i]))
+        }
+        None => None,
+    };
+    let scale = args.scale.unwrap_or(all.rgb.max.max(all.alpha.max) as f32);
+    if !(scale.is_finite() && scale >= 0.0) {
+        bail!("--scale {scale} must be a non-negative error");
+    }
+    if let Some(path) = &args.heatmap {
+        super::output_dir(path)?;
+        // A zero scale (identical images) draws everything black rather than dividing by 0.
+        let picture = heatmap(&a, &b, scale.max(f32::MIN_POSITIVE));
+        write_atomic(path, &png_bytes(&picture))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    if args.json {
+        let json = serde_json::json!({
+            "image": args.image,
+            "reference": args.reference,
+            "width": a.width,
+            "height": a.height,
+            "all": all,
+            "mask": masked,
+            "heatmap_scale": args.heatmap.as_ref().map(|_| scale),
+        });
+        super::print(&format!("{}\n", serde_json::to_string_pretty(&json)?))?;
+    } else {
+        let mut text = format!(
+            "{} against the reference {}: {}x{}\n",
+            args.image.display(),
+            args.reference.display(),
+            a.width,
+            a.height
+        );
+        text += &block("all", &all);
+        if let Some(m) = &masked {
+            text += &block("inside the mask", m);
+        }
+        if let Some(path) = &args.heatmap {
+            text += &format!(
+                "heatmap: {} (brightest = error {scale:.6} or more)\n",
+                path.display()
+            );
+        }
+        super::print(&text)?;
+    }
+    if let Some(limit) = args.fail_above
+        && all.rgb.rmse > limit
+    {
+        return Err(TooDifferent(format!(
+            "{}: colour rmse {:.6} against {} is above --fail-above {limit}",
+            args.image.display(),
+            all.rgb.rmse,
+            args.reference.display()
+        ))
+        .into());
+    }
+    Ok(())
+}

@@ -1,0 +1,274 @@
+//! Error between two renders: the measure behind every claim of accuracy against a reference.
+//!
+//! Both images are read from OpenEXR (the first layer's R, G, B and A); the second is the
+//! reference. Colour and alpha are measured separately, each as root mean square error,
+//! relative mean square error (squared error over the reference squared plus 0.01, so dark
+//! pixels do not dominate, as rendering papers report it), mean absolute error and the largest
+//! absolute error with where it is.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::color::ramp;
+
+/// The channels compared, in order.
+pub const CHANNELS: [&str; 4] = ["R", "G", "B", "A"];
+
+/// Keeps the relative error finite where the reference is black.
+const RELATIVE_EPSILON: f64 = 0.01;
+
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    #[error("{file}: cannot read as OpenEXR: {message}")]
+    Read { file: PathBuf, message: String },
+    #[error("{file}: has no channel {channel} (it has: {present})")]
+    MissingChannel {
+        file: PathBuf,
+        channel: &'static str,
+        present: String,
+    },
+    #[error("{a} is {a_size} but {b} is {b_size}: only images of the same size and window compare")]
+    Size {
+        a: PathBuf,
+        a_size: String,
+        b: PathBuf,
+        b_size: String,
+    },
+}
+
+/// The R, G, B, A pixels of an EXR's data window.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rgba {
+    /// Data window origin and size.
+    pub x0: i32,
+    pub y0: i32,
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<[f32; 4]>,
+}
+
+impl Rgba {
+    pub fn read(path: &Path) -> Result<Rgba, CompareError> {
+        let read_error = |message: String| CompareError::Read {
+            file: path.to_path_buf(),
+            message,
+        };
+        let image = exr::prelude::read_all_flat_layers_from_file(path)
+            .map_err(|e| read_error(e.to_string()))?;
+        let layer = image
+            .layer_data
+            .first()
+            .ok_or_else(|| read_error("it has no layers".into()))?;
+        let names: Vec<String> = layer
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        let (width, height) = (layer.size.width(), layer.size.height());
+        let mut pixels = vec![[0.0f32; 4]; width * height];
+        for (c, channel) in CHANNELS.iter().enumerate() {
+            let Some(data) = layer
+                .channel_data
+                .list
+                .iter()
+                .find(|ch| ch.name.to_string() == *channel)
+            else {
+                return Err(CompareError::MissingChannel {
+                    file: path.to_path_buf(),
+                    channel,
+                    present: names.join(", "),
+                });
+            };
+            for (p, v) in pixels.iter_mut().zip(data.sample_data.values_as_f32()) {
+                p[c] = v;
+            }
+        }
+        Ok(Rgba {
+            x0: layer.attributes.layer_position.x(),
+            y0: layer.attributes.layer_position.y(),
+            width,
+            height,
+            pixels,
+        })
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "{}x{} at ({}, {})",
+            self.width, self.height, self.x0, self.y0
+        )
+    }
+}
+
+/// Errors over one group of channels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Metrics {
+    pub rmse: f64,
+    pub relative_mse: f64,
+    pub mean_absolute: f64,
+    pub max: f64,
+    /// Pixel (x, y within the data window) of the largest error.
+    pub max_at: [usize; 2],
+}
+
+/// What `compare` finds over a set of pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Comparison {
+    pub pixels: usize,
+    /// Pixels where either image holds a NaN or an infinity; left out of the metrics.
+    pub non_finite: usize,
+    pub rgb: Metrics,
+    pub alpha: Metrics,
+}
+
+#[derive(Default)]
+struct Sums {
+    squared: f64,
+    relative: f64,
+    absolute: f64,
+    count: usize,
+    max: f64,
+    max_at: [usize; 2],
+}
+
+impl Sums {
+    fn add(&mut self, a: f32, reference: f32, at: [usize; 2]) {
+        let (a, b) = (f64::from(a), f64::from(reference));
+        let e = a - b;
+        self.squared += e * e;
+        self.relative += e * e / (b * b + RELATIVE_EPSILON);
+        self.absolute += e.abs();
+        self.count += 1;
+        if e.abs() > self.max {
+            self.max = e.abs();
+            self.max_at = at;
+        }
+    }
+
+    fn metrics(&self) -> Metrics {
+        let n = self.count.max(1) as f64;
+        Metrics {
+            rmse: (self.squared / n).sqrt(),
+            relative_mse: self.relative / n,
+            mean_absolute: self.absolute / n,
+            max: self.max,
+            max_at: self.max_at,
+        }
+    }
+}
+
+/// Checks that `a` and `b` (read from the named files) cover the same window.
+pub fn check_same_window(
+    a: &Rgba,
+    a_file: &Path,
+    b: &Rgba,
+    b_file: &Path,
+) -> Result<(), CompareError> {
+    if (a.x0, a.y0, a.width, a.height) != (b.x0, b.y0, b.width, b.height) {
+        return Err(CompareError::Size {
+            a: a_file.to_path_buf(),
+            a_size: a.describe(),
+            b: b_file.to_path_buf(),
+            b_size: b.describe(),
+        });
+    }
+    Ok(())
+}
+
+/// Errors of `a` against the reference `b` over the pixels `inside` accepts (by index).
+/// The images must cover the same window (see [`check_same_window`]).
+pub fn compare(a: &Rgba, b: &Rgba, inside: impl Fn(usize) -> bool) -> Comparison {
+    let (mut rgb, mut alpha) = (Sums::default(), Sums::default());
+    let (mut pixels, mut non_finite) = (0, 0);
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        if !inside(i) {
+            continue;
+        }
+        pixels += 1;
+        if !p.iter().chain(q).all(|v| v.is_finite()) {
+            non_finite += 1;
+            continue;
+        }
+        let at = [i % a.width, i / a.width];
+        for c in 0..3 {
+            rgb.add(p[c], q[c], at);
+        }
+        alpha.add(p[3], q[3], at);
+    }
+    Comparison {
+        pixels,
+        non_finite,
+        rgb: rgb.metrics(),
+        alpha: alpha.metrics(),
+    }
+}
+
+/// A false-colour picture of the error: each pixel's largest absolute difference over R, G, B
+/// and A, from black (none) through purple and orange to pale yellow (`scale` or more).
+/// Non-finite pixels are drawn cyan.
+pub fn heatmap(a: &Rgba, b: &Rgba, scale: f32) -> image::RgbImage {
+    image::RgbImage::from_fn(a.width as u32, a.height as u32, |x, y| {
+        let i = x as usize + a.width * y as usize;
+        let (p, q) = (a.pixels[i], b.pixels[i]);
+        if !p.iter().chain(&q).all(|v| v.is_finite()) {
+            return image::Rgb([0, 255, 255]);
+        }
+        let e = (0..4).map(|c| (p[c] - q[c]).abs()).fold(0.0f32, f32::max);
+        image::Rgb(ramp(e / scale))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(width: usize, height: usize, f: impl Fn(usize) -> [f32; 4]) -> Rgba {
+        Rgba {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+            pixels: (0..width * height).map(f).collect(),
+        }
+    }
+
+    #[test]
+    fn known_differences_give_their_metrics() {
+        // A = B + 0.1 in R only on half the pixels; alpha off by 0.5 on one pixel.
+        let b = image(4, 2, |_| [0.5, 0.5, 0.5, 1.0]);
+        let a = image(4, 2, |i| {
+            let r = if i % 2 == 0 { 0.6 } else { 0.5 };
+            [r, 0.5, 0.5, if i == 5 { 0.5 } else { 1.0 }]
+        });
+        let c = compare(&a, &b, |_| true);
+        assert_eq!((c.pixels, c.non_finite), (8, 0));
+        // RGB: 4 of 24 values off by 0.1.
+        let mse = 4.0 * 0.01 / 24.0;
+        assert!((c.rgb.rmse - f64::sqrt(mse)).abs() < 1e-6, "{c:?}");
+        assert!((c.rgb.mean_absolute - 0.4 / 24.0).abs() < 1e-6);
+        assert!((c.rgb.relative_mse - mse / 0.26).abs() < 1e-6);
+        assert!((c.rgb.max - 0.1).abs() < 1e-6);
+        assert_eq!(c.rgb.max_at, [0, 0]);
+        assert!((c.alpha.rmse - f64::sqrt(0.25 / 8.0)).abs() < 1e-9);
+        assert_eq!(c.alpha.max_at, [1, 1]);
+        // Inside a mask of the odd pixels only alpha differs.
+        let m = compare(&a, &b, |i| i % 2 == 1);
+        assert_eq!(m.pixels, 4);
+        assert_eq!(m.rgb.rmse, 0.0);
+        assert!((m.alpha.max - 0.5).abs() < 1e-9);
+        // An image against itself has no error.
+        assert_eq!(compare(&a, &a, |_| true).rgb, Metrics::default());
+    }
+
+    #[test]
+    fn non_finite_pixels_are_counted_not_averaged() {
+        let b = image(2, 1, |_| [0.2; 4]);
+        let a = image(2, 1, |i| if i == 0 { [f32::NAN; 4] } else { [0.2; 4] });
+        let c = compare(&a, &b, |_| true);
+        assert_eq!(c.non_finite, 1);
+        assert!(c.rgb.rmse == 0.0 && c.rgb.max.is_finite());
+        assert_eq!(heatmap(&a, &b, 1.0).get_pixel(0, 0).0, [0, 255, 255]);
+    }
+}

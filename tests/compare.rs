@@ -1,0 +1,110 @@
+//! `texel compare` end to end on images written here with known differences.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use exr::prelude::*;
+
+/// Writes an RGBA float EXR whose pixel (x, y) is `f(x, y)`.
+fn write(path: &Path, width: usize, height: usize, f: impl Fn(usize, usize) -> [f32; 4] + Sync) {
+    write_rgba_file(path, width, height, |x, y| {
+        let p = f(x, y);
+        (p[0], p[1], p[2], p[3])
+    })
+    .unwrap();
+}
+
+#[test]
+fn compare_measures_known_differences_and_draws_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(&d.join("ref.exr"), 8, 4, |_, _| [0.5, 0.5, 0.5, 1.0]);
+    // Off by 0.2 in every colour channel in the left half.
+    write(&d.join("a.exr"), 8, 4, |x, _| {
+        let v = if x < 4 { 0.7 } else { 0.5 };
+        [v, v, v, 1.0]
+    });
+    let mask = image::GrayImage::from_fn(8, 4, |x, _| image::Luma([if x < 4 { 255 } else { 0 }]));
+    mask.save(d.join("mask.png")).unwrap();
+    let o = run(
+        &[
+            "compare",
+            "a.exr",
+            "ref.exr",
+            "--json",
+            "--mask",
+            "mask.png",
+            "--heatmap",
+            "diff.png",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rmse = json["all"]["rgb"]["rmse"].as_f64().unwrap();
+    assert!((rmse - (0.04f64 / 2.0).sqrt()).abs() < 1e-6, "{json}");
+    assert!((json["mask"]["rgb"]["rmse"].as_f64().unwrap() - 0.2).abs() < 1e-6);
+    assert_eq!(json["mask"]["pixels"], 16);
+    assert_eq!(json["all"]["alpha"]["max"], 0.0);
+    let heat = image::open(d.join("diff.png")).unwrap().to_rgb8();
+    assert_eq!(heat.dimensions(), (8, 4));
+    assert!(
+        heat.get_pixel(0, 0)
+            .0
+            .iter()
+            .map(|&v| v as u32)
+            .sum::<u32>()
+            > 500
+    );
+    assert_eq!(heat.get_pixel(7, 0).0, texel_forest::color::ramp(0.0));
+    // Text names both files and the measures.
+    let o = run(&["compare", "a.exr", "ref.exr"], d);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("a.exr") && text.contains("ref.exr") && text.contains("rmse"));
+    // A build can fail on too large an error, with its own status.
+    let o = run(&["compare", "a.exr", "ref.exr", "--fail-above", "0.1"], d);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("above --fail-above"));
+    assert!(
+        run(&["compare", "a.exr", "ref.exr", "--fail-above", "0.2"], d)
+            .status
+            .success()
+    );
+}
+
+#[test]
+fn compare_refuses_images_that_do_not_match() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(&d.join("ref.exr"), 8, 4, |_, _| [0.5; 4]);
+    write(&d.join("small.exr"), 4, 4, |_, _| [0.5; 4]);
+    assert_error(
+        &run(&["compare", "small.exr", "ref.exr"], d),
+        &["small.exr", "ref.exr", "4x4", "8x4", "same size"],
+    );
+    // Colour without alpha.
+    write_rgb_file(d.join("rgb.exr"), 8, 4, |_, _| (0.5f32, 0.5f32, 0.5f32)).unwrap();
+    assert_error(
+        &run(&["compare", "rgb.exr", "ref.exr"], d),
+        &["rgb.exr", "no channel A"],
+    );
+    std::fs::write(d.join("junk.exr"), b"not an image").unwrap();
+    assert_error(
+        &run(&["compare", "junk.exr", "ref.exr"], d),
+        &["junk.exr", "cannot read"],
+    );
+    image::GrayImage::new(3, 3)
+        .save(d.join("mask.png"))
+        .unwrap();
+    assert_error(
+        &run(&["compare", "ref.exr", "ref.exr", "--mask", "mask.png"], d),
+        &["mask.png", "3x3"],
+    );
+    let o = run(
+        &["compare", "ref.exr", "ref.exr", "--heatmap", "out/d.png"],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
