@@ -9,6 +9,16 @@
 //! I(t) the sun's light times the transmittance towards the sun through every texture and the
 //! terrain (equation 2). Normalised this way an opaque volume shades exactly like a surface.
 //!
+//! How this relates to the paper's equation (1): there the brightness is a sum along the ray,
+//! in steps, of the source times the density times the attenuation exp(-gamma x the density
+//! summed so far) (the low-albedo volume rendering of Kajiya and Von Herzen). That is a
+//! Riemann sum of the integral above with sigma = gamma x rho, whose per-step weight
+//! gamma rho dt exceeds one in dense texels, so its brightness depends on the step and on
+//! gamma. Here each segment is weighted by its exact opacity 1 - exp(-sigma dt) instead: the
+//! weights along a ray then add up to exactly 1 - T, so a fully opaque texel gives the
+//! surface's radiance whatever the step, and texel renders compare directly with renders of
+//! the meshes. For thin media (sigma dt << 1) the two agree.
+//!
 //! Instances are found front to back and lazily, as interval events: a heap of bounding
 //! volume nodes and instance boxes ordered by where the ray enters them; a node is opened only
 //! when the march reaches it, so a grazing ray over a forest never collects the boxes it does
