@@ -396,10 +396,12 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         let normal = (-gradient).try_normalize();
         let opacity = 1.0 - (-sigma * length).exp();
         let share = transmittance * opacity;
-        // The shadow ray leaves from one cell towards the sun: the sample stands for the
-        // surface layer it lies in, which must not shadow itself (an opaque volume would
-        // otherwise shade as Lommel-Seeliger's law, half as bright as a surface lit head-on).
-        let p = ray.dir * ts + sun.direction * cell_here;
+        // The shadow ray leaves from one layer (a cell, or the segment if longer) towards the
+        // sun: the sample stands for the surface layer it lies in, which must not shadow
+        // itself (an opaque volume would otherwise shade as Lommel-Seeliger's law, half as
+        // bright as a surface lit head-on).
+        let p = ray.dir * ts + sun.direction * cell_here.max(length);
+
         let lit = roulette(
             share,
             march,
