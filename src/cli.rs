@@ -121,6 +121,10 @@ pub struct RenderArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 1)]
     pub spp: u32,
+    /// What draws the trees: their 3D textures, or the glTF models the textures were baked
+    /// from (the conventional method; the ground truth at many samples per pixel).
+    #[arg(long, value_enum, default_value_t = MethodArg::Texel)]
+    pub method: MethodArg,
     /// Render only this part of the frame (pixels, x1 and y1 exclusive); equals the same region
     /// of a full render bit for bit.
     #[arg(long, value_name = "X0,Y0,X1,Y1")]
@@ -164,6 +168,14 @@ pub struct RenderArgs {
     /// Also write a Make rule listing every file the render read.
     #[arg(long, value_name = "FILE")]
     pub depfile: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodArg {
+    /// Volume rendering of the 3D textures (the paper's method).
+    Texel,
+    /// Ray tracing the polygon models, with alpha-masked leaves.
+    Mesh,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -8,6 +8,21 @@ use crate::rng;
 /// Key of the random stream that decides coverage of alpha-blended surfaces.
 const BLEND_STREAM: u64 = 0x7472_6163_6564;
 
+/// Whether the surface of triangle `t` of `mesh` is there at barycentric `w` (alpha mask or,
+/// for blended materials, alpha as a coverage probability keyed by `key`).
+pub fn covers(mesh: &Mesh, t: u32, w: [f32; 3], key: u64) -> bool {
+    let tri = &mesh.triangles[t as usize];
+    let alpha_mode = mesh.materials[tri.material as usize].alpha_mode;
+    if alpha_mode == AlphaMode::Opaque {
+        return true;
+    }
+    let alpha = mesh.base_color(tri, w).w;
+    match alpha_mode {
+        AlphaMode::Mask { cutoff } => alpha >= cutoff,
+        _ => alpha as f64 > rng::unit(rng::hash3(key, t as u64, BLEND_STREAM)),
+    }
+}
+
 pub struct MeshTracer<'a> {
     mesh: &'a Mesh,
     triangles: TriangleBvh,
@@ -26,21 +41,6 @@ impl<'a> MeshTracer<'a> {
         }
     }
 
-    /// Whether the surface of triangle `t` is there at barycentric `w` (alpha mask or, for
-    /// blended materials, alpha as a coverage probability keyed by `key`).
-    fn covers(&self, t: u32, w: [f32; 3], key: u64) -> bool {
-        let tri = &self.mesh.triangles[t as usize];
-        let alpha_mode = self.mesh.materials[tri.material as usize].alpha_mode;
-        if alpha_mode == AlphaMode::Opaque {
-            return true;
-        }
-        let alpha = self.mesh.base_color(tri, w).w;
-        match alpha_mode {
-            AlphaMode::Mask { cutoff } => alpha >= cutoff,
-            _ => alpha as f64 > rng::unit(rng::hash3(key, t as u64, BLEND_STREAM)),
-        }
-    }
-
     /// The nearest covered surface along `ray` within (t_min, t_max): triangle and hit.
     pub fn nearest(
         &self,
@@ -50,12 +50,12 @@ impl<'a> MeshTracer<'a> {
         key: u64,
     ) -> Option<(u32, TriangleHit)> {
         self.triangles
-            .nearest(ray, t_min, t_max, |t, h| self.covers(t, h.w, key))
+            .nearest(ray, t_min, t_max, |t, h| covers(self.mesh, t, h.w, key))
     }
 
     /// Whether any covered surface lies along `ray` within (t_min, t_max).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32, key: u64) -> bool {
         self.triangles
-            .occluded(ray, t_min, t_max, |t, h| self.covers(t, h.w, key))
+            .occluded(ray, t_min, t_max, |t, h| covers(self.mesh, t, h.w, key))
     }
 }

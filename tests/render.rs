@@ -277,6 +277,86 @@ fn a_gltf_camera_node_and_directional_light_stand_in_for_the_flags() {
 }
 
 #[test]
+fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The trees baked from copies of the fixtures, so that a model can be changed afterwards.
+    std::fs::create_dir_all(d.join("models")).unwrap();
+    for f in [
+        "conifer.glb",
+        "broadleaf.gltf",
+        "broadleaf.bin",
+        "broadleaf_0.png",
+        "bare.glb",
+    ] {
+        std::fs::copy(fixture(&format!("trees/{f}")), d.join("models").join(f)).unwrap();
+    }
+    std::fs::copy(fixture("species/forest.json"), d.join("species.json")).unwrap();
+    for name in ["conifer.glb", "broadleaf.gltf", "bare.glb"] {
+        let stem = name.split('.').next().unwrap();
+        let o = run(
+            &[
+                "bake",
+                &format!("models/{name}"),
+                "-o",
+                &format!("trees/{stem}.texel"),
+                "--resolution",
+                "8",
+                "--fine",
+                "32",
+            ],
+            d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = place_on_mountain(d, &["--region=-120,-120,120,120"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render(
+        d,
+        &[
+            "--method",
+            "mesh",
+            "--spp",
+            "4",
+            "-o",
+            "mesh.exr",
+            "--depfile",
+            "mesh.d",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("from their meshes"), "{}", stderr(&o));
+    let (values, _) = rgba_and_view(&d.join("mesh.exr"));
+    let alpha = &values[3 * values.len() / 4..];
+    assert!(values.iter().all(|v| v.is_finite()));
+    assert!(alpha.iter().filter(|&&a| a > 0.5).count() > 100);
+    let dep = std::fs::read_to_string(d.join("mesh.d")).unwrap();
+    for needle in [
+        "models/conifer.glb",
+        "models/broadleaf.bin",
+        "models/broadleaf_0.png",
+    ] {
+        assert!(dep.contains(needle), "{needle} missing from {dep}");
+    }
+    // A model changed since its bake: refused, naming the texel and the model.
+    let mut bytes = std::fs::read(d.join("models/broadleaf.bin")).unwrap();
+    bytes[0] ^= 1;
+    std::fs::write(d.join("models/broadleaf.bin"), bytes).unwrap();
+    let o = render(d, &["--method", "mesh", "-o", "stale.exr"]);
+    assert_error(
+        &o,
+        &[
+            "trees/broadleaf.texel",
+            "models/broadleaf.bin",
+            "changed since it was baked",
+        ],
+    );
+    assert!(!d.join("stale.exr").exists());
+    // The texel method does not need the models.
+    assert!(render(d, &["-o", "texel.exr"]).status.success());
+}
+
+#[test]
 fn missing_or_stale_inputs_are_refused_before_rendering() {
     let dir = small_forest();
     for (flags, needle) in [

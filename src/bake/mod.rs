@@ -171,6 +171,19 @@ fn scan_all(model: &ScanModel, occupancy: bool) -> Vec<AxisScan> {
         .collect()
 }
 
+/// Which triangles of `mesh` are foliage under the foliage pattern a bake recorded
+/// (`BakeParameters::foliage_pattern`), matched as the bake matched it.
+pub fn foliage_triangles(mesh: &Mesh, pattern: &str) -> Result<Vec<bool>, BakeError> {
+    let settings = BakeSettings {
+        foliage: pattern.to_string(),
+        ..BakeSettings::default()
+    };
+    Ok(classify::foliage_triangles(
+        mesh,
+        &settings.foliage_regex()?,
+    ))
+}
+
 /// The extinction (1/m, both parts) each axis's rays estimate, before they are combined into
 /// one isotropic value: what `formats/texel.md`'s measurement of anisotropy compares against.
 pub fn axis_extinctions(

@@ -9,15 +9,17 @@ use anyhow::{Context, bail};
 use glam::{DVec3, Vec3};
 use sha2::{Digest, Sha256};
 
+use texel_forest::bake;
 use texel_forest::formats::{hex, instances, texel};
 use texel_forest::import;
 use texel_forest::output::{depfile, write_atomic};
+use texel_forest::render::mesh::TreeMesh;
 use texel_forest::render::{
-    self, Aovs, Camera, Lighting, Look, March, Placed, RenderSettings, Scene, Shading, Sun,
+    self, Aovs, Camera, Lighting, Look, March, Method, Placed, RenderSettings, Scene, Shading, Sun,
 };
 use texel_forest::volume::Texel;
 
-use crate::cli::{AovArg, RenderArgs};
+use crate::cli::{AovArg, MethodArg, RenderArgs};
 
 /// Afternoon light from the south-west when nothing says otherwise.
 const DEFAULT_SUN: (f64, f64) = (225.0, 35.0);
@@ -125,6 +127,7 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
     dependencies.extend(terrain.sources.iter().map(|s| s.path.clone()));
 
     let mut texels: Vec<Texel> = Vec::new();
+    let mut texel_paths: Vec<PathBuf> = Vec::new();
     let mut loaded: HashMap<PathBuf, usize> = HashMap::new();
     let mut load = |rel: &str, sha: &[u8; 32]| -> anyhow::Result<usize> {
         let path = dir.join(rel);
@@ -134,6 +137,7 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
         let bytes = read_checked(&path, sha, &args.instances)?;
         let t = texel::decode(&bytes).with_context(|| path.display().to_string())?;
         texels.push(t);
+        texel_paths.push(path.clone());
         loaded.insert(path.clone(), texels.len() - 1);
         dependencies.push(path);
         Ok(texels.len() - 1)
@@ -166,6 +170,11 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
             );
         }
     }
+
+    let meshes = match args.method {
+        MethodArg::Texel => None,
+        MethodArg::Mesh => Some(tree_meshes(&texels, &texel_paths, &mut dependencies)?),
+    };
 
     // Camera and sun: flags, else the glTF's, else defaults that frame the whole terrain.
     let views = match &args.camera_file {
@@ -238,7 +247,15 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
         Some(terrain.mesh.clone()),
         lighting,
     );
+    let scene = match meshes {
+        Some(m) => scene.with_meshes(m),
+        None => scene,
+    };
     let settings = RenderSettings {
+        method: match args.method {
+            MethodArg::Texel => Method::Texel,
+            MethodArg::Mesh => Method::Mesh,
+        },
         spp: args.spp,
         march: March {
             step: args.step,
@@ -301,9 +318,19 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
     if !quiet {
         let rays = pixels * args.spp as u64;
         let (samples, shadow_rays) = film.work();
+        let work = match args.method {
+            MethodArg::Texel => {
+                format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel")
+            }
+            MethodArg::Mesh => format!("{shadow_rays:.1} shadow rays per pixel"),
+        };
         eprintln!(
-            "texel: rendered {} trees, {}x{} ({} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel -> {} ({:.2} s in all)",
+            "texel: rendered {} trees from their {}, {}x{} ({} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} ({:.2} s in all)",
             forest.instances.len(),
+            match args.method {
+                MethodArg::Texel => "textures",
+                MethodArg::Mesh => "meshes",
+            },
             args.width,
             args.height,
             pixels,
@@ -314,6 +341,54 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The polygon model each texel was baked from (its first recorded source, relative to the
+/// texel), refused if any of its files changed since the bake, with its foliage picked out by
+/// the bake's own pattern.
+fn tree_meshes(
+    texels: &[Texel],
+    paths: &[PathBuf],
+    dependencies: &mut Vec<PathBuf>,
+) -> anyhow::Result<Vec<TreeMesh>> {
+    let mut meshes = Vec::new();
+    for (t, path) in texels.iter().zip(paths) {
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let Some(model) = t.info.sources.first() else {
+            bail!(
+                "{}: records no source model (made by {:?}); --method mesh needs the glTF it was baked from",
+                path.display(),
+                t.info.generator
+            );
+        };
+        for source in &t.info.sources {
+            let file = dir.join(&source.path);
+            let bytes = std::fs::read(&file).with_context(|| {
+                format!(
+                    "{}: cannot read its source {} (--method mesh draws the models the texels were baked from)",
+                    path.display(),
+                    file.display()
+                )
+            })?;
+            let hash: [u8; 32] = Sha256::digest(&bytes).into();
+            if hash != source.sha256 {
+                bail!(
+                    "{}: its source {} changed since it was baked (sha256 {} recorded, {} now); re-run texel bake",
+                    path.display(),
+                    file.display(),
+                    &hex(&source.sha256)[..12],
+                    &hex(&hash)[..12]
+                );
+            }
+            dependencies.push(file);
+        }
+        let file = dir.join(&model.path);
+        let m = import::load_surface(&file, "a tree")?;
+        let foliage = bake::foliage_triangles(&m.mesh, &t.info.parameters.foliage_pattern)
+            .with_context(|| path.display().to_string())?;
+        meshes.push(TreeMesh::new(m.mesh, foliage));
+    }
+    Ok(meshes)
 }
 
 /// A distant view of the whole terrain from the south-south-west, 25 degrees above it, aimed

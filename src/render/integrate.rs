@@ -450,9 +450,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
             } else {
                 0.0
             };
-            let source = albedo
-                * (lit * scene.shading.kd * normal.dot(sun.direction).max(0.0)
-                    + scene.shading.ambient * scene.shading.kd);
+            let source = shade_ground(scene, albedo, normal, lit);
             out.rgb += source * transmittance;
             if out.distance.is_infinite() {
                 out.distance = hit.t;
@@ -499,25 +497,41 @@ fn roulette(
     }
 }
 
-/// I(t): the sun's radiance scale, irradiance / pi, times the transmittance towards it.
+/// I(t): the sun's radiance scale times the transmittance towards it.
 fn sun_light(scene: &Scene, p: Vec3, footprint: f32, key: u64, march: &March) -> f32 {
-    let sun = scene.sun;
     let t = transmittance(
         scene,
         p,
-        sun.direction,
+        scene.sun.direction,
         f32::INFINITY,
         footprint,
         key,
         march,
     );
-    sun.irradiance / std::f32::consts::PI * t
+    sun_radiance(scene) * t
+}
+
+/// I_0: the sun's irradiance / pi, the radiance of a white Lambertian surface facing it.
+pub(super) fn sun_radiance(scene: &Scene) -> f32 {
+    scene.sun.irradiance / std::f32::consts::PI
+}
+
+/// The terrain's answer to the light: Lambertian, lit by `light` and the ambient term.
+pub(super) fn shade_ground(scene: &Scene, albedo: Vec3, normal: Vec3, light: f32) -> Vec3 {
+    let s = &scene.shading;
+    albedo * (light * s.kd * normal.dot(scene.sun.direction).max(0.0) + s.ambient * s.kd)
 }
 
 /// Equation (3): albedo (I (kd cos theta + ks cos^n alpha) + Ia kd). Without a normal (no
 /// density gradient) the cosine is replaced by its mean over the hemisphere facing the
 /// light, 1/2, and there is no highlight.
-fn shade(scene: &Scene, albedo: Vec3, normal: Option<Vec3>, light: f32, to_eye: Vec3) -> Vec3 {
+pub(super) fn shade(
+    scene: &Scene,
+    albedo: Vec3,
+    normal: Option<Vec3>,
+    light: f32,
+    to_eye: Vec3,
+) -> Vec3 {
     let s = &scene.shading;
     let l = scene.sun.direction;
     let direct = match normal {

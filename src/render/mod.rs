@@ -9,6 +9,7 @@
 pub mod camera;
 pub mod film;
 pub mod integrate;
+pub mod mesh;
 pub mod sampler;
 pub mod scene;
 
@@ -20,14 +21,28 @@ pub use integrate::{March, Radiance};
 pub use scene::{Ground, Lighting, Look, Placed, Scene, Shading, Sun};
 
 #[cfg(test)]
+mod mesh_tests;
+#[cfg(test)]
 mod tests;
 
 use crate::rng;
 
 const TILE: u32 = 32;
 
+/// How trees are drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Method {
+    /// Volume rendering of the 3D textures (the paper's method).
+    #[default]
+    Texel,
+    /// Ray tracing the polygon models the textures were baked from (the conventional method;
+    /// at many samples per pixel, the ground truth). Needs [`Scene::with_meshes`].
+    Mesh,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
+    pub method: Method,
     /// Samples per pixel, stratified over the pixel.
     pub spp: u32,
     pub march: March,
@@ -39,6 +54,7 @@ pub struct RenderSettings {
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
+            method: Method::Texel,
             spp: 1,
             march: March::default(),
             crop: None,
@@ -118,7 +134,11 @@ fn pixel(
         let px = x as f64 + (sx + rng::unit(key)) / strata as f64;
         let py = y as f64 + (sy + rng::unit(rng::mix64(key))) / strata as f64;
         let dir = camera.direction(px, py);
-        let r = integrate::radiance(scene, dir, spread, rng::mix64(key ^ 0x5a), &settings.march);
+        let ray_key = rng::mix64(key ^ 0x5a);
+        let r = match settings.method {
+            Method::Texel => integrate::radiance(scene, dir, spread, ray_key, &settings.march),
+            Method::Mesh => mesh::radiance(scene, dir, ray_key),
+        };
         for c in 0..3 {
             rgba[c] += r.rgb[c];
         }

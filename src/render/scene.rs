@@ -7,6 +7,8 @@ use crate::geom::{Aabb, Bvh, Ray, TriangleBvh, TriangleHit};
 use crate::import::Mesh;
 use crate::volume::Texel;
 
+use super::mesh::TreeMesh;
+
 /// How a species looks on the rendered day.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Look {
@@ -180,6 +182,8 @@ pub struct Scene {
     /// Per texel: its grid box in model space (the union over levels).
     pub model_boxes: Vec<Aabb>,
     pub bvh: Bvh,
+    /// Per texel, the polygon model it was baked from, for the mesh method (else empty).
+    pub meshes: Vec<TreeMesh>,
     pub ground: Option<Ground>,
     pub sun: Sun,
     pub shading: Shading,
@@ -250,10 +254,18 @@ impl Scene {
             bvh: Bvh::build(&boxes),
             instances,
             model_boxes,
+            meshes: Vec::new(),
             ground: ground.map(|m| Ground::new(m, origin)),
             sun,
             shading,
             sky,
         }
+    }
+
+    /// The scene drawn from the polygon models the texels were baked from: `meshes[k]` is
+    /// the model of `texels[k]`, in the same model space.
+    pub fn with_meshes(self, meshes: Vec<TreeMesh>) -> Scene {
+        assert_eq!(meshes.len(), self.texels.len(), "one mesh per texel");
+        Scene { meshes, ..self }
     }
 }

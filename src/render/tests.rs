@@ -47,7 +47,7 @@ pub(crate) fn uniform_texel(
     }
 }
 
-fn look() -> Look {
+pub(super) fn look() -> Look {
     Look {
         texel: 0,
         foliage: 1.0,
@@ -55,7 +55,7 @@ fn look() -> Look {
     }
 }
 
-fn placed(position: DVec3) -> Placed {
+pub(super) fn placed(position: DVec3) -> Placed {
     Placed {
         look: 0,
         position,
@@ -65,7 +65,7 @@ fn placed(position: DVec3) -> Placed {
 }
 
 /// A flat square of ground at height `y`, `half` metres each way, of albedo `albedo`.
-fn ground(y: f32, half: f32, albedo: f32) -> Mesh {
+pub(super) fn ground(y: f32, half: f32, albedo: f32) -> Mesh {
     let p = [(-half, -half), (half, -half), (half, half), (-half, half)]
         .map(|(x, z)| Vec3::new(x, y, z));
     Mesh {
@@ -90,13 +90,13 @@ fn ground(y: f32, half: f32, albedo: f32) -> Mesh {
     }
 }
 
-const PLAIN: Shading = Shading {
+pub(super) const PLAIN: Shading = Shading {
     kd: 1.0,
     ks: 0.0,
     shininess: 1.0,
     ambient: 0.0,
 };
-const HEAD_ON: Sun = Sun {
+pub(super) const HEAD_ON: Sun = Sun {
     direction: Vec3::Z,
     irradiance: std::f32::consts::PI,
 };

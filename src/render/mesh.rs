@@ -1,0 +1,207 @@
+//! The conventional method the paper compares against, and at many samples per pixel the
+//! ground truth: the same instances drawn from their original polygon models.
+//!
+//! Two levels of bounding volume hierarchy: the scene's tree over the instances' boxes (the
+//! one the volume renderer walks), and one per model over its triangles, in model space. A ray
+//! is carried into each instance's frame (the direction divided by the scale, so distances
+//! along it are the renderer's), so 20,000 trees cost no more memory than their few models.
+//! Surfaces shade with the same equation (3) as the textures, on the geometric normal, lit by
+//! the sun through every mesh and the terrain; alpha-masked leaves let light and view through.
+
+use glam::Vec3;
+
+use super::integrate::{Radiance, shade, shade_ground, sun_radiance};
+use super::scene::{Instance, Scene};
+use crate::geom::{Ray, TriangleBvh, TriangleHit};
+use crate::import::Mesh;
+use crate::mesh_tracer::covers;
+use crate::rng;
+
+/// Key of the random stream that drops foliage triangles for a partial leaf fraction.
+const LEAF_STREAM: u64 = 0x6c65_6166;
+
+/// A tree model ready for tracing, in its model space (that of the texel baked from it).
+pub struct TreeMesh {
+    pub mesh: Mesh,
+    triangles: TriangleBvh,
+    /// Per triangle: part of the foliage (recoloured by season, thinned by leaf fraction).
+    foliage: Vec<bool>,
+}
+
+impl TreeMesh {
+    pub fn new(mesh: Mesh, foliage: Vec<bool>) -> TreeMesh {
+        let corners = mesh
+            .triangles
+            .iter()
+            .map(|t| t.vertices.map(|v| mesh.positions[v as usize]))
+            .collect();
+        TreeMesh {
+            triangles: TriangleBvh::new(corners),
+            mesh,
+            foliage,
+        }
+    }
+
+    fn normal(&self, t: u32) -> Vec3 {
+        let [a, b, c] = self.mesh.triangles[t as usize]
+            .vertices
+            .map(|v| self.mesh.positions[v as usize]);
+        (b - a).cross(c - a).normalize_or(Vec3::Y)
+    }
+}
+
+/// A hit on a tree: which instance, which triangle of its model, and where.
+struct TreeHit {
+    instance: u32,
+    triangle: u32,
+    hit: TriangleHit,
+}
+
+/// Whether triangle `t` of instance `i`'s model is there at `w`: its alpha, and for foliage
+/// the leaf fraction (the same leaves stay on a tree for every ray).
+fn present(scene: &Scene, i: u32, tree: &TreeMesh, t: u32, w: [f32; 3], key: u64) -> bool {
+    if tree.foliage[t as usize] {
+        let fraction = scene.looks[scene.instances[i as usize].look as usize].foliage;
+        if fraction < 1.0
+            && rng::unit(rng::hash3(u64::from(i), u64::from(t), LEAF_STREAM)) >= f64::from(fraction)
+        {
+            return false;
+        }
+    }
+    covers(&tree.mesh, t, w, key)
+}
+
+fn tree_of<'a>(scene: &'a Scene, inst: &Instance) -> &'a TreeMesh {
+    &scene.meshes[scene.looks[inst.look as usize].texel]
+}
+
+fn local_ray(inst: &Instance, ray: &Ray) -> Ray {
+    Ray {
+        origin: inst.to_model(ray.origin),
+        dir: inst.dir_to_model(ray.dir),
+    }
+}
+
+/// The nearest tree surface along `ray` before `t_max`.
+fn nearest_tree(scene: &Scene, ray: &Ray, t_max: f32, key: u64) -> Option<TreeHit> {
+    let mut best: Option<TreeHit> = None;
+    scene.bvh.traverse(ray, 0.0, t_max, |i, t_max| {
+        let inst = &scene.instances[i as usize];
+        let tree = tree_of(scene, inst);
+        let (triangle, hit) =
+            tree.triangles
+                .nearest(&local_ray(inst, ray), 0.0, t_max, |t, h| {
+                    present(scene, i, tree, t, h.w, key)
+                })?;
+        best = Some(TreeHit {
+            instance: i,
+            triangle,
+            hit,
+        });
+        Some(hit.t)
+    });
+    best
+}
+
+/// Whether the sun is hidden from `origin` by the terrain or any tree.
+fn sun_hidden(scene: &Scene, origin: Vec3, key: u64) -> bool {
+    let ray = Ray {
+        origin,
+        dir: scene.sun.direction,
+    };
+    if let Some(g) = &scene.ground
+        && g.occluded(&ray, f32::INFINITY)
+    {
+        return true;
+    }
+    let mut hidden = false;
+    scene.bvh.traverse(&ray, 0.0, f32::INFINITY, |i, t_max| {
+        let inst = &scene.instances[i as usize];
+        let tree = tree_of(scene, inst);
+        if tree
+            .triangles
+            .occluded(&local_ray(inst, &ray), 0.0, t_max, |t, h| {
+                present(scene, i, tree, t, h.w, key)
+            })
+        {
+            hidden = true;
+            return Some(0.0);
+        }
+        None
+    });
+    hidden
+}
+
+/// Radiance along the ray from the eye in direction `dir`, from the polygon models.
+pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
+    let ray = Ray {
+        origin: Vec3::ZERO,
+        dir,
+    };
+    let ground_hit = scene
+        .ground
+        .as_ref()
+        .and_then(|g| g.nearest(&ray, f32::INFINITY));
+    let t_max = ground_hit.map_or(f32::INFINITY, |(_, h)| h.t);
+    let mut out = Radiance {
+        distance: f32::INFINITY,
+        ..Radiance::default()
+    };
+    let shadow_key = rng::mix64(key ^ 0x73);
+    let (normal, albedo, t, species) = if let Some(h) = nearest_tree(scene, &ray, t_max, key) {
+        let inst = &scene.instances[h.instance as usize];
+        let tree = tree_of(scene, inst);
+        let look = &scene.looks[inst.look as usize];
+        let n = inst
+            .dir_to_world(tree.normal(h.triangle))
+            .normalize_or(Vec3::Y);
+        let albedo = if tree.foliage[h.triangle as usize] {
+            look.foliage_albedo
+        } else {
+            let tri = &tree.mesh.triangles[h.triangle as usize];
+            tree.mesh.base_color(tri, h.hit.w).truncate()
+        };
+        out.canopy = 1.0;
+        (n, albedo, h.hit.t, inst.look as f32 + 1.0)
+    } else if let (Some(g), Some((tri, hit))) = (&scene.ground, ground_hit) {
+        let triangle = &g.mesh.triangles[tri as usize];
+        let albedo = g.mesh.base_color(triangle, hit.w).truncate();
+        (g.normal(tri, dir), albedo, hit.t, 0.0)
+    } else {
+        out.transmittance = 1.0;
+        if let Some(sky) = scene.sky {
+            out.rgb = sky;
+            out.transmittance = 0.0;
+        }
+        return out;
+    };
+    // Two-sided: the face the eye sees.
+    let normal = if normal.dot(dir) > 0.0 {
+        -normal
+    } else {
+        normal
+    };
+    let p = dir * t;
+    let lit = if normal.dot(scene.sun.direction) > 0.0 {
+        out.shadow_rays = 1;
+        let lift = p + normal * (1e-4 * t.max(1.0));
+        if sun_hidden(scene, lift, shadow_key) {
+            0.0
+        } else {
+            sun_radiance(scene)
+        }
+    } else {
+        0.0
+    };
+    out.rgb = if species > 0.0 {
+        shade(scene, albedo, Some(normal), lit, -dir)
+    } else {
+        shade_ground(scene, albedo, normal, lit)
+    };
+    out.distance = t;
+    out.normal = normal;
+    out.albedo = albedo;
+    out.species = species;
+    out.samples = 1;
+    out
+}
