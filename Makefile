@@ -10,7 +10,7 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
            $(OUT)/trees/$(t)-projection-z.png $(OUT)/trees/$(t)-projection-y.png \
            $(OUT)/trees/$(t)-slice-y10.png)
 
-.PHONY: demo test bench accuracy fixtures clean FORCE
+.PHONY: demo test bench accuracy report fixtures clean FORCE
 .DELETE_ON_ERROR:
 
 FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
@@ -27,6 +27,11 @@ bench:
 
 accuracy:
 	$(CARGO) run --release --example accuracy -- --anisotropy
+
+# Speed against error for every method and setting (report/; the reference renders are
+# cached in report/cache/). About 15 minutes on 2 cores the first time.
+report: $(TEXEL)
+	$(CARGO) run --release --example report
 
 # Regenerates the procedural fixtures and the golden .texel; tests check they match.
 fixtures:

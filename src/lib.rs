@@ -18,6 +18,7 @@ pub mod inspect;
 pub mod mesh_tracer;
 pub mod output;
 pub mod place;
+pub mod plot;
 pub mod procedural;
 pub mod render;
 pub mod rng;

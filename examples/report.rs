@@ -1,0 +1,499 @@
+//! `make report`: speed against error, the paper's claim measured.
+//!
+//! On the demo forest (the fixture trees on the fixture mountain) seen from afar (the paper's
+//! case), from the middle distance and from near, every way of rendering is timed and its
+//! error measured against a mesh render at many samples per pixel (the ground truth, cached
+//! under `report/cache/` so reruns are fast): the mesh method at 1 to 64 spp; the texel method
+//! with both density models at 16, 32 and 64 cells and 1 and 4 spp; and every setting of the
+//! texel renderer that trades speed for error. Then flicker: the far view rendered with
+//! sub-pixel camera jitter, and the mean per-pixel standard deviation across the frames.
+//!
+//! Writes `report/speed_vs_error.csv`, `report/README.md` (tables and the headline) and
+//! `report/speed_vs_error_<view>.png`. Everything runs through the `texel` binary, as a user's
+//! build would.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use sha2::{Digest, Sha256};
+use texel_forest::compare::{Rgba, compare};
+use texel_forest::plot::{PALETTE, Plot, Series};
+
+const WIDTH: u32 = 480;
+const HEIGHT: u32 = 270;
+const REFERENCE_SPP: u32 = 256;
+const FLICKER_FRAMES: usize = 8;
+const TREES: [(&str, &str); 3] = [
+    ("conifer", "conifer.glb"),
+    ("broadleaf", "broadleaf.gltf"),
+    ("bare", "bare.glb"),
+];
+
+struct View {
+    name: &'static str,
+    flags: &'static [&'static str],
+}
+
+const VIEWS: [View; 3] = [
+    // The default framing: the whole mountain from 1.5 km (the paper's figure 6).
+    View {
+        name: "far",
+        flags: &[],
+    },
+    View {
+        name: "middle",
+        flags: &["--eye=-350,600,650", "--target", "0,300,0", "--fov", "40"],
+    },
+    View {
+        name: "near",
+        flags: &["--eye=-110,420,190", "--target", "0,330,40", "--fov", "40"],
+    },
+];
+
+/// One measured render.
+struct Row {
+    view: &'static str,
+    method: String,
+    setting: String,
+    spp: u32,
+    seconds: f64,
+    rmse: f64,
+    relative_mse: f64,
+    alpha_rmse: f64,
+}
+
+struct Report {
+    root: PathBuf,
+    texel: PathBuf,
+    work: PathBuf,
+}
+
+impl Report {
+    fn run(&self, args: &[&str]) -> f64 {
+        let start = Instant::now();
+        let o = Command::new(&self.texel)
+            .args(args)
+            .current_dir(&self.work)
+            .output()
+            .expect("texel runs");
+        assert!(
+            o.status.success(),
+            "texel {}: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        start.elapsed().as_secs_f64()
+    }
+
+    /// Texels of one density model and resolution, and the forest placed with them (the same
+    /// trees at the same places for every variant: placement does not depend on the texture).
+    fn variant(&self, density: &str, resolution: u32) -> String {
+        let dir = format!("{density}-{resolution}");
+        std::fs::create_dir_all(self.work.join(&dir).join("trees")).unwrap();
+        std::fs::copy(
+            self.root.join("fixtures/species/forest.json"),
+            self.work.join(&dir).join("species.json"),
+        )
+        .unwrap();
+        for (name, file) in TREES {
+            let model = self.root.join("fixtures/trees").join(file);
+            self.run(&[
+                "bake",
+                model.to_str().unwrap(),
+                "-o",
+                &format!("{dir}/trees/{name}.texel"),
+                "--resolution",
+                &resolution.to_string(),
+                "--fine",
+                &(resolution * 4).max(256).to_string(),
+                "--density",
+                density,
+                "-q",
+            ]);
+        }
+        let terrain = self.root.join("fixtures/terrain/mountain.glb");
+        self.run(&[
+            "place",
+            terrain.to_str().unwrap(),
+            "--species",
+            &format!("{dir}/species.json"),
+            "-o",
+            &format!("{dir}/forest.instances"),
+            "--seed",
+            "1",
+            "-q",
+        ]);
+        format!("{dir}/forest.instances")
+    }
+
+    /// Renders `forest` from `view` with `extra` flags to `out`; returns the seconds taken.
+    fn render(&self, forest: &str, view: &View, extra: &[&str], out: &str) -> f64 {
+        let (w, h) = (WIDTH.to_string(), HEIGHT.to_string());
+        let mut args = vec![
+            "render", forest, "-o", out, "--width", &w, "--height", &h, "-q",
+        ];
+        args.extend_from_slice(view.flags);
+        args.extend_from_slice(extra);
+        self.run(&args)
+    }
+
+    /// The ground truth for `view`: a mesh render at many spp, reused while the forest, the
+    /// models and the mesh renderer's sources are unchanged.
+    fn reference(&self, forest: &str, view: &View) -> PathBuf {
+        let mut key = Sha256::new();
+        key.update(std::fs::read(self.work.join(forest)).unwrap());
+        for (_, file) in TREES {
+            key.update(std::fs::read(self.root.join("fixtures/trees").join(file)).unwrap());
+        }
+        for src in [
+            "src/render/mesh.rs",
+            "src/render/scene.rs",
+            "src/render/camera.rs",
+            "src/render/mod.rs",
+            "src/render/integrate.rs",
+            "src/mesh_tracer.rs",
+            "src/geom/bvh.rs",
+        ] {
+            key.update(std::fs::read(self.root.join(src)).unwrap());
+        }
+        key.update(format!("{:?} {WIDTH} {HEIGHT} {REFERENCE_SPP}", view.flags));
+        let key: String = key.finalize()[..8]
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        let cache = self.root.join("report/cache");
+        std::fs::create_dir_all(&cache).unwrap();
+        let path = cache.join(format!("{}-{key}.exr", view.name));
+        if !path.exists() {
+            eprintln!(
+                "report: reference for the {} view ({REFERENCE_SPP} spp mesh)...",
+                view.name
+            );
+            let tmp = cache.join(format!("{}-{key}.tmp.exr", view.name));
+            let spp = REFERENCE_SPP.to_string();
+            let seconds = self.render(
+                forest,
+                view,
+                &["--method", "mesh", "--spp", &spp, "--seed", "7"],
+                tmp.to_str().unwrap(),
+            );
+            std::fs::rename(&tmp, &path).unwrap();
+            eprintln!("report: reference took {seconds:.0} s");
+        }
+        path
+    }
+}
+
+fn measure(out: &Path, reference: &Rgba) -> (f64, f64, f64) {
+    let image = Rgba::read(out).unwrap();
+    let c = compare(&image, reference, |_| true);
+    (c.rgb.rmse, c.rgb.relative_mse, c.alpha.rmse)
+}
+
+/// Log-log interpolation of the mesh curve's time at `error`; `None` outside its range.
+fn mesh_time_at(mesh: &[(f64, f64)], error: f64) -> Option<f64> {
+    // Points are (seconds, error) with error falling as time grows.
+    mesh.windows(2).find_map(|w| {
+        let ((t0, e0), (t1, e1)) = (w[0], w[1]);
+        if (e1..=e0).contains(&error) && e0 > e1 {
+            let f = (error.ln() - e0.ln()) / (e1.ln() - e0.ln());
+            Some((t0.ln() + f * (t1.ln() - t0.ln())).exp())
+        } else {
+            None
+        }
+    })
+}
+
+/// The camera of a render, from its EXR: eye, forward, right and up (world), for jitter.
+fn camera_of(path: &Path) -> [glam::DVec3; 4] {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let m = image.layer_data[0]
+        .attributes
+        .world_to_camera
+        .expect("worldToCamera");
+    // Row-vector convention: p_camera = p_world * M, so M's columns are the camera axes.
+    let m = glam::DMat4::from_cols_array(&m.map(f64::from)).transpose();
+    let inv = m.inverse();
+    let eye = inv.transform_point3(glam::DVec3::ZERO);
+    let axis = |v: glam::DVec3| inv.transform_vector3(v).normalize();
+    [
+        eye,
+        axis(glam::DVec3::NEG_Z),
+        axis(glam::DVec3::X),
+        axis(glam::DVec3::Y),
+    ]
+}
+
+fn main() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let texel = root.join("target/release/texel");
+    assert!(
+        texel.exists(),
+        "build the binary first (make report does: cargo build --release)"
+    );
+    let report = Report {
+        work: root.join("report/work"),
+        texel,
+        root: root.clone(),
+    };
+    std::fs::create_dir_all(&report.work).unwrap();
+    let started = Instant::now();
+
+    eprintln!("report: baking and placing the variants...");
+    let mut variants = Vec::new();
+    for density in ["transmittance", "occupancy"] {
+        for resolution in [16, 32, 64] {
+            variants.push((density, resolution, report.variant(density, resolution)));
+        }
+    }
+    let default_forest = variants
+        .iter()
+        .find(|v| v.0 == "transmittance" && v.1 == 32)
+        .unwrap()
+        .2
+        .clone();
+
+    let mut rows: Vec<Row> = Vec::new();
+    for view in &VIEWS {
+        let reference = Rgba::read(&report.reference(&default_forest, view)).unwrap();
+        eprintln!("report: the {} view...", view.name);
+        let out = format!("{}.exr", view.name);
+        let mut record = |method: &str, setting: &str, spp: u32, seconds: f64| {
+            let (rmse, relative_mse, alpha_rmse) = measure(&report.work.join(&out), &reference);
+            rows.push(Row {
+                view: view.name,
+                method: method.into(),
+                setting: setting.into(),
+                spp,
+                seconds,
+                rmse,
+                relative_mse,
+                alpha_rmse,
+            });
+        };
+        for spp in [1, 4, 16, 64] {
+            let s = spp.to_string();
+            let t = report.render(
+                &default_forest,
+                view,
+                &["--method", "mesh", "--spp", &s],
+                &out,
+            );
+            record("mesh", "", spp, t);
+        }
+        for (density, resolution, forest) in &variants {
+            let spps: &[u32] = if *density == "transmittance" && *resolution == 32 {
+                &[1, 4, 16]
+            } else {
+                &[1, 4]
+            };
+            for &spp in spps {
+                let s = spp.to_string();
+                let t = report.render(forest, view, &["--spp", &s], &out);
+                record(&format!("texel {density} {resolution}"), "", spp, t);
+            }
+        }
+        for (flag, value) in [
+            ("--step", "0.5"),
+            ("--step", "2"),
+            ("--cutoff", "0.01"),
+            ("--cutoff", "0.0001"),
+            ("--shadow-share", "0"),
+            ("--shadow-share", "0.2"),
+            ("--lod-bias", "-1"),
+            ("--lod-bias", "1"),
+            ("--shadow-lod", "0"),
+            ("--shadow-lod", "2"),
+        ] {
+            let t = report.render(&default_forest, view, &[flag, value], &out);
+            record("texel transmittance 32", &format!("{flag} {value}"), 1, t);
+        }
+    }
+
+    // Flicker: the far view with the camera moved by a fraction of a pixel between frames.
+    eprintln!("report: flicker...");
+    let far = &VIEWS[0];
+    report.render(&default_forest, far, &[], "camera.exr");
+    let [eye, forward, right, up] = camera_of(&report.work.join("camera.exr"));
+    let distance = 1500.0;
+    let pixel = 2.0 * distance * (35f64.to_radians() / 2.0).tan() / HEIGHT as f64;
+    let mut flicker = Vec::new();
+    for (method, extra) in [
+        ("mesh 1 spp", vec!["--method", "mesh"]),
+        ("mesh 4 spp", vec!["--method", "mesh", "--spp", "4"]),
+        ("mesh 16 spp", vec!["--method", "mesh", "--spp", "16"]),
+        ("texel 1 spp", vec![]),
+        ("texel 4 spp", vec!["--spp", "4"]),
+    ] {
+        let mut frames = Vec::new();
+        for k in 0..FLICKER_FRAMES {
+            // A fixed sub-pixel pattern, the same for every method.
+            let (dx, dy) = ((k as f64 * 0.618_034) % 1.0, (k as f64 * 0.381_966) % 1.0);
+            let shift = (right * (dx - 0.5) + up * (dy - 0.5)) * pixel;
+            let (e, t) = (eye + shift, eye + forward * distance + shift);
+            let eye_flag = format!("--eye={},{},{}", e.x, e.y, e.z);
+            let target = format!("{},{},{}", t.x, t.y, t.z);
+            let mut args = vec![
+                eye_flag.as_str(),
+                "--target",
+                target.as_str(),
+                "--fov",
+                "35",
+            ];
+            args.extend_from_slice(&extra);
+            let out = format!("flicker-{k}.exr");
+            report.render(&default_forest, far, &args, &out);
+            frames.push(Rgba::read(&report.work.join(&out)).unwrap());
+        }
+        let n = frames.len() as f64;
+        let pixels = frames[0].pixels.len();
+        let mut sum = 0.0;
+        for i in 0..pixels {
+            for c in 0..3 {
+                let v: Vec<f64> = frames.iter().map(|f| f64::from(f.pixels[i][c])).collect();
+                let mean = v.iter().sum::<f64>() / n;
+                let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+                sum += var.sqrt();
+            }
+        }
+        flicker.push((method, sum / (3 * pixels) as f64));
+    }
+
+    write_outputs(
+        &root.join("report"),
+        &rows,
+        &flicker,
+        started.elapsed().as_secs_f64(),
+    );
+}
+
+fn write_outputs(dir: &Path, rows: &[Row], flicker: &[(&str, f64)], seconds: f64) {
+    let mut csv = String::from("view,method,setting,spp,seconds,rmse,relative_mse,alpha_rmse\n");
+    for r in rows {
+        writeln!(
+            csv,
+            "{},{},{},{},{:.3},{:.6},{:.6},{:.6}",
+            r.view, r.method, r.setting, r.spp, r.seconds, r.rmse, r.relative_mse, r.alpha_rmse
+        )
+        .unwrap();
+    }
+    std::fs::write(dir.join("speed_vs_error.csv"), csv).unwrap();
+
+    let mut md = format!(
+        "# Speed against error\n\nWritten by `make report` ({seconds:.0} s). Images {WIDTH} x {HEIGHT}; \
+         error is the colour RMSE against a {REFERENCE_SPP}-spp mesh render (the ground truth); \
+         times are whole `texel render` runs on this machine.\n\n"
+    );
+    md += "## Headline\n\n| view | best texel setting | its time, error | mesh time for that error | texel faster by | texel error floor |\n|---|---|---|---|---|---|\n";
+    for view in VIEWS.iter().map(|v| v.name) {
+        let mesh: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| r.view == view && r.method == "mesh")
+            .map(|r| (r.seconds, r.rmse))
+            .collect();
+        let texels: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.view == view && r.method.starts_with("texel"))
+            .collect();
+        let floor = texels
+            .iter()
+            .min_by(|a, b| a.rmse.total_cmp(&b.rmse))
+            .unwrap();
+        // The texel setting with the largest speed-up over the mesh at equal error, where the
+        // mesh curve reaches that error; else the fastest texel render.
+        let best = texels
+            .iter()
+            .filter_map(|r| mesh_time_at(&mesh, r.rmse).map(|m| (r, m, m / r.seconds)))
+            .max_by(|a, b| a.2.total_cmp(&b.2));
+        let label = |r: &Row| {
+            format!(
+                "{}{}{}",
+                r.method,
+                if r.setting.is_empty() { "" } else { ", " },
+                r.setting
+            ) + &format!(", {} spp", r.spp)
+        };
+        let floor_text = format!("{:.4} ({})", floor.rmse, label(floor));
+        match best {
+            Some((r, m, x)) => writeln!(
+                md,
+                "| {view} | {} | {:.2} s, {:.4} | {m:.2} s | {x:.2}x | {floor_text} |",
+                label(r),
+                r.seconds,
+                r.rmse
+            ),
+            None => {
+                let (t1, e1) = mesh[0];
+                let fastest = texels
+                    .iter()
+                    .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
+                    .unwrap();
+                writeln!(
+                    md,
+                    "| {view} | {} | {:.2} s, {:.4} | mesh at 1 spp: {t1:.2} s, {e1:.4} | no texel setting falls within the mesh curve | {floor_text} |",
+                    label(fastest),
+                    fastest.seconds,
+                    fastest.rmse
+                )
+            }
+        }
+        .unwrap();
+    }
+    md += "\n## Flicker (far view, camera moved by sub-pixel steps over ";
+    md += &format!(
+        "{FLICKER_FRAMES} frames; mean per-pixel standard deviation)\n\n| method | flicker |\n|---|---|\n"
+    );
+    for (m, f) in flicker {
+        writeln!(md, "| {m} | {f:.5} |").unwrap();
+    }
+    for view in VIEWS.iter().map(|v| v.name) {
+        writeln!(
+            md,
+            "\n## {view} view\n\n![](speed_vs_error_{view}.png)\n\n| method | setting | spp | seconds | rmse | rel. mse | alpha rmse |\n|---|---|---|---|---|---|---|"
+        )
+        .unwrap();
+        for r in rows.iter().filter(|r| r.view == view) {
+            writeln!(
+                md,
+                "| {} | {} | {} | {:.2} | {:.5} | {:.5} | {:.5} |",
+                r.method, r.setting, r.spp, r.seconds, r.rmse, r.relative_mse, r.alpha_rmse
+            )
+            .unwrap();
+        }
+        // One curve per method (the settings sweep is in the table, not the plot).
+        let mut methods: Vec<&str> = Vec::new();
+        for r in rows
+            .iter()
+            .filter(|r| r.view == view && r.setting.is_empty())
+        {
+            if !methods.contains(&r.method.as_str()) {
+                methods.push(&r.method);
+            }
+        }
+        let plot = Plot {
+            title: format!("{view} view: error against time"),
+            x_label: "seconds".into(),
+            y_label: "rmse".into(),
+            series: methods
+                .iter()
+                .enumerate()
+                .map(|(k, m)| Series {
+                    name: m.to_string(),
+                    color: PALETTE[k % PALETTE.len()],
+                    points: rows
+                        .iter()
+                        .filter(|r| r.view == view && r.setting.is_empty() && r.method == *m)
+                        .map(|r| (r.seconds, r.rmse))
+                        .collect(),
+                })
+                .collect(),
+        };
+        plot.draw(900, 560)
+            .save(dir.join(format!("speed_vs_error_{view}.png")))
+            .unwrap();
+    }
+    std::fs::write(dir.join("README.md"), &md).unwrap();
+    print!("{md}");
+}

@@ -1,0 +1,297 @@
+//! Small log-log line plots as PNG-ready pictures, for the reports: axes with decade ticks,
+//! one polyline with markers per series, a legend, and text in a built-in 5 x 7 pixel font
+//! (so no font files are needed on the machine that makes the report).
+
+use image::{Rgb, RgbImage};
+
+/// One curve: points (x, y), both positive.
+#[derive(Clone, Debug)]
+pub struct Series {
+    pub name: String,
+    pub color: [u8; 3],
+    pub points: Vec<(f64, f64)>,
+}
+
+#[derive(Clone, Debug)]
+pub struct Plot {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
+}
+
+/// Distinct colours for up to eight series (Okabe and Ito's palette, safe for colour-blind
+/// readers).
+pub const PALETTE: [[u8; 3]; 8] = [
+    [0, 114, 178],
+    [230, 159, 0],
+    [0, 158, 115],
+    [204, 121, 167],
+    [86, 180, 233],
+    [213, 94, 0],
+    [240, 228, 66],
+    [0, 0, 0],
+];
+
+const SCALE: u32 = 2;
+const GLYPH_W: u32 = 6 * SCALE;
+
+/// Rows of a 5 x 7 glyph, five bits each, most significant bit leftmost.
+fn glyph(c: char) -> [u8; 7] {
+    match c.to_ascii_uppercase() {
+        'A' => [14, 17, 17, 31, 17, 17, 17],
+        'B' => [30, 17, 17, 30, 17, 17, 30],
+        'C' => [14, 17, 16, 16, 16, 17, 14],
+        'D' => [28, 18, 17, 17, 17, 18, 28],
+        'E' => [31, 16, 16, 30, 16, 16, 31],
+        'F' => [31, 16, 16, 30, 16, 16, 16],
+        'G' => [14, 17, 16, 23, 17, 17, 15],
+        'H' => [17, 17, 17, 31, 17, 17, 17],
+        'I' => [14, 4, 4, 4, 4, 4, 14],
+        'J' => [7, 2, 2, 2, 2, 18, 12],
+        'K' => [17, 18, 20, 24, 20, 18, 17],
+        'L' => [16, 16, 16, 16, 16, 16, 31],
+        'M' => [17, 27, 21, 21, 17, 17, 17],
+        'N' => [17, 17, 25, 21, 19, 17, 17],
+        'O' => [14, 17, 17, 17, 17, 17, 14],
+        'P' => [30, 17, 17, 30, 16, 16, 16],
+        'Q' => [14, 17, 17, 17, 21, 18, 13],
+        'R' => [30, 17, 17, 30, 20, 18, 17],
+        'S' => [15, 16, 16, 14, 1, 1, 30],
+        'T' => [31, 4, 4, 4, 4, 4, 4],
+        'U' => [17, 17, 17, 17, 17, 17, 14],
+        'V' => [17, 17, 17, 17, 17, 10, 4],
+        'W' => [17, 17, 17, 21, 21, 21, 10],
+        'X' => [17, 17, 10, 4, 10, 17, 17],
+        'Y' => [17, 17, 17, 10, 4, 4, 4],
+        'Z' => [31, 1, 2, 4, 8, 16, 31],
+        '0' => [14, 17, 19, 21, 25, 17, 14],
+        '1' => [4, 12, 4, 4, 4, 4, 14],
+        '2' => [14, 17, 1, 2, 4, 8, 31],
+        '3' => [31, 2, 4, 2, 1, 17, 14],
+        '4' => [2, 6, 10, 18, 31, 2, 2],
+        '5' => [31, 16, 30, 1, 1, 17, 14],
+        '6' => [6, 8, 16, 30, 17, 17, 14],
+        '7' => [31, 1, 2, 4, 8, 8, 8],
+        '8' => [14, 17, 17, 14, 17, 17, 14],
+        '9' => [14, 17, 17, 15, 1, 2, 12],
+        '.' => [0, 0, 0, 0, 0, 12, 12],
+        ',' => [0, 0, 0, 0, 12, 4, 8],
+        '-' => [0, 0, 0, 31, 0, 0, 0],
+        '+' => [0, 4, 4, 31, 4, 4, 0],
+        '(' => [2, 4, 8, 8, 8, 4, 2],
+        ')' => [8, 4, 2, 2, 2, 4, 8],
+        '/' => [0, 1, 2, 4, 8, 16, 0],
+        ':' => [0, 12, 12, 0, 12, 12, 0],
+        '=' => [0, 0, 31, 0, 31, 0, 0],
+        '%' => [24, 25, 2, 4, 8, 19, 3],
+        ' ' => [0; 7],
+        _ => [31, 17, 17, 17, 17, 17, 31],
+    }
+}
+
+fn put(img: &mut RgbImage, x: i64, y: i64, c: [u8; 3]) {
+    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
+        img.put_pixel(x as u32, y as u32, Rgb(c));
+    }
+}
+
+/// Draws `text` with its top-left corner at (x, y).
+fn text(img: &mut RgbImage, x: i64, y: i64, s: &str, c: [u8; 3]) {
+    for (k, ch) in s.chars().enumerate() {
+        let rows = glyph(ch);
+        let x0 = x + (k as u32 * GLYPH_W) as i64;
+        for (r, bits) in rows.iter().enumerate() {
+            for col in 0..5 {
+                if bits & (16 >> col) != 0 {
+                    for dy in 0..SCALE as i64 {
+                        for dx in 0..SCALE as i64 {
+                            put(
+                                img,
+                                x0 + col * SCALE as i64 + dx,
+                                y + r as i64 * SCALE as i64 + dy,
+                                c,
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn text_width(s: &str) -> i64 {
+    (s.chars().count() as u32 * GLYPH_W) as i64
+}
+
+/// A line `width` pixels thick.
+fn line(img: &mut RgbImage, (x0, y0): (f64, f64), (x1, y1): (f64, f64), c: [u8; 3], width: i64) {
+    let steps = (x1 - x0).abs().max((y1 - y0).abs()).ceil().max(1.0) as i64;
+    for i in 0..=steps {
+        let f = i as f64 / steps as f64;
+        let (x, y) = (x0 + (x1 - x0) * f, y0 + (y1 - y0) * f);
+        for d in 0..width {
+            put(img, x as i64 + d - width / 2, y as i64, c);
+            put(img, x as i64, y as i64 + d - width / 2, c);
+        }
+    }
+}
+
+/// `v` as a short label: 0.001, 0.02, 5, 300.
+fn label(v: f64) -> String {
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
+}
+
+/// The decades spanning `lo`..`hi` (positive), widened to whole decades.
+fn decades(lo: f64, hi: f64) -> (f64, f64) {
+    (
+        lo.log10().floor(),
+        hi.log10().ceil().max(lo.log10().floor() + 1.0),
+    )
+}
+
+impl Plot {
+    /// The plot as a `width` x `height` picture. Non-positive or non-finite points are left out.
+    pub fn draw(&self, width: u32, height: u32) -> RgbImage {
+        let mut img = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
+        let points = || {
+            self.series
+                .iter()
+                .flat_map(|s| s.points.iter())
+                .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+        };
+        let (x_lo, x_hi) = points().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+        let (y_lo, y_hi) = points().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.1), b.max(p.1))
+        });
+        let (legend_w, left, top, bottom) = (
+            self.series
+                .iter()
+                .map(|s| text_width(&s.name))
+                .max()
+                .unwrap_or(0)
+                + 50,
+            90i64,
+            50i64,
+            70i64,
+        );
+        let (x0, x1) = (left as f64, width as f64 - legend_w as f64 - 20.0);
+        let (y0, y1) = (height as f64 - bottom as f64, top as f64);
+        let black = [0, 0, 0];
+        let grey = [220, 220, 220];
+        text(&mut img, left, 15, &self.title, black);
+        if !x_lo.is_finite() || !y_lo.is_finite() {
+            return img;
+        }
+        let (dx0, dx1) = decades(x_lo, x_hi);
+        let (dy0, dy1) = decades(y_lo, y_hi);
+        let px = |x: f64| x0 + (x.log10() - dx0) / (dx1 - dx0) * (x1 - x0);
+        let py = |y: f64| y0 + (y.log10() - dy0) / (dy1 - dy0) * (y1 - y0);
+        // Grid at 1, 2 and 5 times each decade; labels at 1 (and 2, 5 when decades are few).
+        for (d0, d1, horizontal) in [(dx0, dx1, false), (dy0, dy1, true)] {
+            for d in d0 as i32..=d1 as i32 {
+                for m in [1.0, 2.0, 5.0] {
+                    let v = m * 10f64.powi(d);
+                    if v.log10() > d1 + 1e-9 {
+                        continue;
+                    }
+                    let labelled = m == 1.0 || d1 - d0 <= 2.0;
+                    let shade = if m == 1.0 { [190, 190, 190] } else { grey };
+                    if horizontal {
+                        let y = py(v);
+                        line(&mut img, (x0, y), (x1, y), shade, 1);
+                        if labelled {
+                            let l = label(v);
+                            text(&mut img, left - 8 - text_width(&l), y as i64 - 7, &l, black);
+                        }
+                    } else {
+                        let x = px(v);
+                        line(&mut img, (x, y0), (x, y1), shade, 1);
+                        if labelled {
+                            let l = label(v);
+                            text(
+                                &mut img,
+                                x as i64 - text_width(&l) / 2,
+                                y0 as i64 + 8,
+                                &l,
+                                black,
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        line(&mut img, (x0, y0), (x1, y0), black, 1);
+        line(&mut img, (x0, y0), (x0, y1), black, 1);
+        text(
+            &mut img,
+            ((x0 + x1) / 2.0) as i64 - text_width(&self.x_label) / 2,
+            height as i64 - 28,
+            &self.x_label,
+            black,
+        );
+        text(&mut img, 8, top - 26, &self.y_label, black);
+        for (k, s) in self.series.iter().enumerate() {
+            let pts: Vec<(f64, f64)> = s
+                .points
+                .iter()
+                .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+                .map(|&(x, y)| (px(x), py(y)))
+                .collect();
+            for w in pts.windows(2) {
+                line(&mut img, w[0], w[1], s.color, 2);
+            }
+            for &(x, y) in &pts {
+                for dy in -3..=3 {
+                    for dx in -3..=3 {
+                        put(&mut img, x as i64 + dx, y as i64 + dy, s.color);
+                    }
+                }
+            }
+            let ly = top + 10 + 24 * k as i64;
+            let lx = width as i64 - legend_w;
+            line(
+                &mut img,
+                (lx as f64, ly as f64 + 7.0),
+                (lx as f64 + 30.0, ly as f64 + 7.0),
+                s.color,
+                3,
+            );
+            text(&mut img, lx + 38, ly, &s.name, black);
+        }
+        img
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn series_land_where_their_values_say_on_log_axes() {
+        let plot = Plot {
+            title: "t".into(),
+            x_label: "seconds".into(),
+            y_label: "rmse".into(),
+            series: vec![Series {
+                name: "a".into(),
+                color: [255, 0, 0],
+                points: vec![(1.0, 0.01), (10.0, 0.001), (f64::NAN, 1.0), (-1.0, 1.0)],
+            }],
+        };
+        let img = plot.draw(600, 400);
+        // Decades 1..10 across, 0.001..0.01 down: (1, 0.01) is the plot area's top-left corner,
+        // (10, 0.001) its bottom-right, and the line between them passes the middle.
+        let red = |x: u32, y: u32| img.get_pixel(x, y).0 == [255, 0, 0];
+        let (x0, x1, y0, y1) = (90.0, 600.0 - (6.0 * 2.0 + 50.0) - 20.0, 330.0, 50.0);
+        assert!(red(x0 as u32, y1 as u32));
+        assert!(red(x1 as u32, y0 as u32));
+        assert!(red(((x0 + x1) / 2.0) as u32, ((y0 + y1) / 2.0) as u32));
+        assert_eq!(label(0.001), "0.001");
+        assert_eq!(label(20.0), "20");
+    }
+}
