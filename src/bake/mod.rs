@@ -138,7 +138,7 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     for part in 0..2 {
         level.gradient[part] = sobel::gradient(&level.density[part], grid.dims, grid.cell);
     }
-    let levels = mip_chain(level);
+    let levels = mip_chain(level, extinction_scale);
 
     let (lo, hi) = mesh.bounds().expect("fit_grid checked for triangles");
     Ok(Texel {
@@ -210,10 +210,10 @@ pub fn axis_extinctions(
 }
 
 /// Level 0 and every coarser level down to one cell (see `formats/texel.md`).
-pub fn mip_chain(level0: Level) -> Vec<Level> {
+pub fn mip_chain(level0: Level, extinction_scale: f64) -> Vec<Level> {
     let mut levels = vec![level0];
     while let Some(last) = levels.last().filter(|l| l.cell_count() > 1) {
-        let next = filter::reduce(last);
+        let next = filter::reduce(last, extinction_scale);
         levels.push(next);
     }
     levels

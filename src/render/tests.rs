@@ -43,7 +43,7 @@ pub(crate) fn uniform_texel(
                 requested_gamma: None,
             },
         },
-        levels: mip_chain(l),
+        levels: mip_chain(l, 1.0),
     }
 }
 
@@ -282,7 +282,7 @@ fn fog_ball() -> (Scene, Camera) {
     }
     l.gradient[1] = sobel::gradient(&l.density[1], [n; 3], 0.25);
     let mut texel = uniform_texel([n; 3], 0.25, DVec3::splat(-2.0), 0.0, [0.5; 3]);
-    texel.levels = mip_chain(l);
+    texel.levels = mip_chain(l, 1.0);
     let sun = Sun::from_angles(200.0, 40.0, std::f32::consts::PI);
     let scene = Scene::new(
         DVec3::new(0.3, 0.2, 8.0),
