@@ -30,11 +30,7 @@ pub struct MeshTracer<'a> {
 
 impl<'a> MeshTracer<'a> {
     pub fn new(mesh: &'a Mesh) -> Self {
-        let corners = mesh
-            .triangles
-            .iter()
-            .map(|t| t.vertices.map(|v| mesh.positions[v as usize]))
-            .collect();
+        let corners = mesh.corners();
         MeshTracer {
             mesh,
             triangles: TriangleBvh::new(corners),

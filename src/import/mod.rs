@@ -100,6 +100,14 @@ impl Mesh {
         (!self.triangles.is_empty()).then_some((lo, hi))
     }
 
+    /// The three corners of every triangle, in order: what acceleration structures are built on.
+    pub fn corners(&self) -> Vec<[Vec3; 3]> {
+        self.triangles
+            .iter()
+            .map(|t| t.vertices.map(|v| self.positions[v as usize]))
+            .collect()
+    }
+
     /// Linear RGBA base colour of `triangle` at barycentric weights `w` (material factor x
     /// texture x `COLOR_0`).
     pub fn base_color(&self, triangle: &Triangle, w: [f32; 3]) -> Vec4 {

@@ -30,11 +30,7 @@ pub struct TreeMesh {
 
 impl TreeMesh {
     pub fn new(mesh: Mesh, foliage: Vec<bool>) -> TreeMesh {
-        let corners = mesh
-            .triangles
-            .iter()
-            .map(|t| t.vertices.map(|v| mesh.positions[v as usize]))
-            .collect();
+        let corners = mesh.corners();
         TreeMesh {
             triangles: TriangleBvh::new(corners),
             mesh,

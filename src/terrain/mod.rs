@@ -39,11 +39,7 @@ impl Terrain {
 
     pub fn from_model(model: Model) -> Terrain {
         let mesh = &model.mesh;
-        let corners: Vec<[Vec3; 3]> = mesh
-            .triangles
-            .iter()
-            .map(|t| t.vertices.map(|v| mesh.positions[v as usize]))
-            .collect();
+        let corners = mesh.corners();
         let triangles = TriangleBvh::new(corners);
         let b = triangles.bounds();
         Terrain {
