@@ -13,6 +13,7 @@ const MAX_COUNT: u64 = 1 << 24;
 
 /// Values of an accessor, `components` per element, converted to `f64` (exact for every glTF
 /// component type, including `UNSIGNED_INT` indices).
+#[derive(Debug)]
 pub(super) struct Values {
     pub components: usize,
     pub data: Vec<f64>,
@@ -64,7 +65,9 @@ fn decode(ct: ComponentType, normalized: bool, b: &[u8]) -> f64 {
     }
 }
 
-/// A checked window of a buffer view: `count` elements of `elem` bytes every `stride` bytes.
+/// A checked window of a buffer view: `count` elements of `elem` bytes every `stride` bytes,
+/// starting `offset` bytes into the view. The window returned starts at the first element, so
+/// element `i` is at `i * stride`.
 fn view_window<'a>(
     doc: &'a mut Document,
     view_index: usize,
@@ -93,17 +96,23 @@ fn view_window<'a>(
         ));
     }
     let buffer_index = view.buffer.value();
-    let needed = if count == 0 {
+    // Bytes of the view the accessor spans, from the view's start: its offset, then every
+    // element but the last at the stride, then the last element itself.
+    let span = if count == 0 {
         0
     } else {
-        offset + (count - 1) * stride as u64 + elem as u64
+        (count - 1)
+            .checked_mul(stride as u64)
+            .and_then(|s| s.checked_add(elem as u64))
+            .unwrap_or(u64::MAX)
     };
+    let needed = offset.saturating_add(span);
     if needed > view_length {
         return Err(ImportError::invalid(
             &path,
             field,
             format!(
-                "reads {needed} bytes from bufferView {view_index}, which has only {view_length}"
+                "reads bytes {offset} to {needed} of bufferView {view_index}, which has only {view_length}"
             ),
         ));
     }
@@ -119,8 +128,9 @@ fn view_window<'a>(
             ),
         ));
     }
+    // Both ends lie within the view, which lies within the buffer.
     let start = (view_offset + offset) as usize;
-    Ok((&buffer[start..start + needed as usize], stride))
+    Ok((&buffer[start..start + span as usize], stride))
 }
 
 /// Reads accessor `index` as floating-point values; `field` names the referencing JSON path.
@@ -289,3 +299,6 @@ pub(super) fn read_indices(
     let values = read(doc, index, field)?;
     Ok(values.data.iter().map(|&v| v as u32).collect())
 }
+
+#[cfg(test)]
+mod tests;
