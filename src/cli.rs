@@ -217,10 +217,14 @@ pub struct BakeArgs {
     /// silhouettes).
     #[arg(long, value_name = "PER_METRE")]
     pub gamma: Option<f64>,
-    /// Case-insensitive regular expression on material names that marks foliage
-    /// (alpha-masked materials are foliage too).
+    /// Case-insensitive regular expression on material names that marks foliage. Materials
+    /// whose alpha mask cuts shapes out of them (leaf cards) are foliage too.
     #[arg(long, default_value = texel_forest::bake::DEFAULT_FOLIAGE, value_name = "REGEX")]
     pub foliage: String,
+    /// Case-insensitive regular expression on material names that marks wood, whatever
+    /// --foliage or an alpha mask says (e.g. bark with holes in its texture).
+    #[arg(long, value_name = "REGEX")]
+    pub wood: Option<String>,
     /// Also write a Make rule listing every file the bake read.
     #[arg(long, value_name = "FILE")]
     pub depfile: Option<PathBuf>,

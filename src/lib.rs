@@ -15,6 +15,7 @@ pub mod formats;
 pub mod geom;
 pub mod import;
 pub mod inspect;
+pub mod limits;
 pub mod mesh_tracer;
 pub mod output;
 pub mod place;

@@ -128,7 +128,7 @@ pub struct SourceFile {
 }
 
 /// The parameters a bake was run with, recorded so a texture can be re-made or compared.
-#[derive(Clone, Debug, PartialEq, Serialize, bincode::Encode, bincode::Decode)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BakeParameters {
     /// Texture cells along the longest side of the model.
     pub resolution: u32,
@@ -138,6 +138,46 @@ pub struct BakeParameters {
     pub foliage_pattern: String,
     /// gamma (1/m) given on the command line; `None` = fitted automatically (occupancy only).
     pub requested_gamma: Option<f64>,
+    /// Case-insensitive regular expression on material names that marks wood whatever else
+    /// says foliage (`--wood`); `None` where none was given (and in files before v1.1).
+    pub wood_pattern: Option<String>,
+}
+
+/// Where a material of the model went: wood or foliage, and why.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MaterialPart {
+    pub name: String,
+    pub foliage: bool,
+    pub reason: PartReason,
+    /// Share of the material's surface its alpha (`MASK` or `BLEND`) removes.
+    pub cut: f32,
+    /// Triangles of the model drawn with it.
+    pub triangles: u64,
+}
+
+/// Why a material is wood or foliage, in the order the rules are tried.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PartReason {
+    /// Wood: its name matches the `--wood` pattern.
+    WoodPattern,
+    /// Foliage: its name matches the `--foliage` pattern.
+    FoliagePattern,
+    /// Foliage: its alpha removes part of its surface (leaf cards).
+    AlphaCuts,
+    /// Wood: nothing says foliage.
+    Solid,
+}
+
+impl PartReason {
+    pub fn describe(self) -> &'static str {
+        match self {
+            PartReason::WoodPattern => "name matches --wood",
+            PartReason::FoliagePattern => "name matches --foliage",
+            PartReason::AlphaCuts => "alpha cuts leaf shapes",
+            PartReason::Solid => "solid",
+        }
+    }
 }
 
 /// Everything about a texture but its voxels.
@@ -162,6 +202,9 @@ pub struct TexelInfo {
     #[serde(serialize_with = "crate::formats::hex32")]
     pub inputs_sha256: [u8; 32],
     pub parameters: BakeParameters,
+    /// How each material of the model divided between wood and foliage (empty in files
+    /// before v1.1).
+    pub materials: Vec<MaterialPart>,
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -355,3 +355,153 @@ fn alpha_masked_leaf_cards_bake_as_leaves_not_as_quads() {
         "masked / opaque coverage {ratio}"
     );
 }
+
+/// Leaf cards masked by the leaf texture, and a post whose material is `MASK` too but whose
+/// texture is opaque (as real asset packs mark bark): written with external images, so a
+/// test can swap one. Returns the glTF's file name in `dir`.
+fn masked_bark_model(dir: &std::path::Path) -> &'static str {
+    let mut b = ModelBuilder::default();
+    let leaf = b.material(MaterialSpec {
+        name: "Card_A".into(),
+        color: [0.2, 0.5, 0.1, 1.0],
+        mask: Some((texel_forest::procedural::trees::leaf_texture(), 0.2)),
+    });
+    for i in 0..4 {
+        b.card(
+            leaf,
+            Vec3::new(i as f32 * 0.5, 1.5, 0.0),
+            Vec3::X * 0.4,
+            Vec3::Y * 0.4,
+        );
+    }
+    let opaque = image::RgbaImage::from_pixel(8, 8, image::Rgba([90, 60, 40, 255]));
+    let bark = b.material(MaterialSpec {
+        name: "Bark_A".into(),
+        color: [1.0; 4],
+        mask: Some((opaque, 0.2)),
+    });
+    b.tube(
+        bark,
+        &[
+            (Vec3::new(0.75, 0.0, 0.0), 0.1),
+            (Vec3::new(0.75, 1.5, 0.0), 0.08),
+        ],
+        8,
+    );
+    let f = b.to_gltf(Some("tree"), "test");
+    std::fs::write(dir.join("tree.bin"), &f.bin).unwrap();
+    for (name, png) in &f.images {
+        std::fs::write(dir.join(name), png).unwrap();
+    }
+    let mut doc = f.doc.clone();
+    doc["buffers"][0]["uri"] = json!("tree.bin");
+    std::fs::write(dir.join("tree.gltf"), serde_json::to_vec(&doc).unwrap()).unwrap();
+    "tree.gltf"
+}
+
+fn bake_and_read(dir: &std::path::Path, extra: &[&str]) -> texel_forest::volume::Texel {
+    let mut args = vec!["bake", "tree.gltf", "-o", "t.texel", "--resolution", "8"];
+    args.extend_from_slice(extra);
+    let o = run(&args, dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    texel_forest::formats::texel::decode(&std::fs::read(dir.join("t.texel")).unwrap()).unwrap()
+}
+
+#[test]
+fn mask_marked_bark_stays_wood_and_flags_override_both_ways() {
+    use texel_forest::volume::PartReason;
+    let dir = tempfile::tempdir().unwrap();
+    masked_bark_model(dir.path());
+    let part = |t: &texel_forest::volume::Texel, name: &str| {
+        let m = t.info.materials.iter().find(|m| m.name == name).unwrap();
+        (m.foliage, m.reason)
+    };
+    let wood_mass = |t: &texel_forest::volume::Texel| -> f64 {
+        t.levels[0].density[0].iter().map(|&d| d as f64).sum()
+    };
+
+    let t = bake_and_read(dir.path(), &[]);
+    assert_eq!(part(&t, "Bark_A"), (false, PartReason::Solid));
+    assert_eq!(part(&t, "Card_A"), (true, PartReason::AlphaCuts));
+    assert!(
+        t.info
+            .materials
+            .iter()
+            .any(|m| m.name == "Card_A" && m.cut > 0.2)
+    );
+    assert!(wood_mass(&t) > 0.0, "the trunk keeps its wood density");
+
+    // --wood wins over the mask; --foliage over the mask's silence.
+    let t = bake_and_read(dir.path(), &["--wood", "card"]);
+    assert_eq!(part(&t, "Card_A"), (false, PartReason::WoodPattern));
+    assert_eq!(t.info.foliage_triangles, 0);
+    assert_eq!(t.info.parameters.wood_pattern.as_deref(), Some("card"));
+    let t = bake_and_read(dir.path(), &["--foliage", "bark|card"]);
+    assert_eq!(part(&t, "Bark_A"), (true, PartReason::FoliagePattern));
+    assert_eq!(t.info.foliage_triangles, t.info.triangles);
+
+    // inspect says which materials went where, as text and JSON.
+    bake_and_read(dir.path(), &[]);
+    let text = String::from_utf8(run(&["inspect", "t.texel"], dir.path()).stdout).unwrap();
+    let line = |name: &str| text.lines().find(|l| l.contains(name)).unwrap().to_string();
+    assert!(
+        line("Bark_A").contains("wood") && line("Bark_A").contains("solid"),
+        "{text}"
+    );
+    assert!(
+        line("Card_A").contains("foliage") && line("Card_A").contains("alpha cuts"),
+        "{text}"
+    );
+    let o = run(&["inspect", "t.texel", "--json"], dir.path());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["materials"][0]["reason"], "alpha_cuts");
+    assert_eq!(v["format"], "texel 1.1");
+}
+
+#[test]
+fn a_mask_over_a_texture_without_alpha_is_worth_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    masked_bark_model(dir.path());
+    // The bark's texture, re-encoded as RGB: no alpha channel at all.
+    let rgb = image::RgbImage::from_pixel(8, 8, image::Rgb([90, 60, 40]));
+    rgb.save(dir.path().join("tree_1.png")).unwrap();
+    let o = run(
+        &["bake", "tree.gltf", "-o", "t.texel", "--resolution", "8"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("texel: warning:") && err.contains("Bark_A") && err.contains("no alpha"),
+        "{err}"
+    );
+}
+
+#[test]
+fn valid_but_empty_files_and_compressed_ones_get_the_right_advice() {
+    assert_bake_fails(
+        "empty.gltf",
+        br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{}]}"#,
+        &["nothing to bake"],
+    );
+    assert_bake_fails(
+        "noscenes.gltf",
+        br#"{"asset":{"version":"2.0"},"scene":0,"nodes":[]}"#,
+        &["scene", "scene 0 does not exist", "no scenes"],
+    );
+    let meshopt = tiny_gltf(&TETRA, 4, |d| {
+        d["extensionsUsed"] = json!(["EXT_meshopt_compression"]);
+        d["extensionsRequired"] = json!(["EXT_meshopt_compression"]);
+    });
+    assert_bake_fails(
+        "meshopt.gltf",
+        &meshopt,
+        &["EXT_meshopt_compression", "gltfpack without -c"],
+    );
+    let tiny = TETRA.map(|p| p.map(|c| c * 1e-30));
+    assert_bake_fails(
+        "speck.gltf",
+        &tiny_gltf(&tiny, 4, |_| {}),
+        &["smaller than", "metres"],
+    );
+}

@@ -4,19 +4,106 @@ use std::collections::HashMap;
 
 use regex::Regex;
 
-use crate::import::Mesh;
+use crate::import::{AlphaMode, Mesh};
+use crate::volume::{MaterialPart, PartReason};
 
-/// Foliage triangles: their material's name matches `foliage` or their material is alpha-tested
-/// (leaf cards). Everything else is wood.
-pub fn foliage_triangles(mesh: &Mesh, foliage: &Regex) -> Vec<bool> {
-    let is_foliage: Vec<bool> = mesh
-        .materials
+/// Share of a material's surface its alpha must remove for the material to count as leaf
+/// cards. Exporters mark whole packs `MASK`, bark included, with fully opaque textures; a
+/// mask that removes nothing says nothing about what the surface is.
+pub const MIN_CUT: f32 = 0.01;
+
+/// Barycentric sample points per triangle side when measuring what a mask removes: n^2
+/// points, the centroids of the sub-triangles of a regular n-subdivision.
+const CUT_SAMPLES_PER_SIDE: usize = 4;
+
+/// How each of `mesh`'s materials divides between wood and foliage, in the order of
+/// `mesh.materials`. A material is wood when its name matches `wood`; else foliage when its
+/// name matches `foliage`, or when its alpha (`MASK` or `BLEND`) actually removes at least
+/// [`MIN_CUT`] of its surface (leaf cards); else wood.
+pub fn material_parts(mesh: &Mesh, foliage: &Regex, wood: Option<&Regex>) -> Vec<MaterialPart> {
+    let cut = cut_fractions(mesh);
+    let mut triangles = vec![0u64; mesh.materials.len()];
+    for t in &mesh.triangles {
+        triangles[t.material as usize] += 1;
+    }
+    mesh.materials
         .iter()
-        .map(|m| m.is_alpha_tested() || foliage.is_match(&m.name))
-        .collect();
+        .enumerate()
+        .map(|(i, m)| {
+            let reason = if wood.is_some_and(|w| w.is_match(&m.name)) {
+                PartReason::WoodPattern
+            } else if foliage.is_match(&m.name) {
+                PartReason::FoliagePattern
+            } else if cut[i] >= MIN_CUT {
+                PartReason::AlphaCuts
+            } else {
+                PartReason::Solid
+            };
+            MaterialPart {
+                name: m.name.clone(),
+                foliage: matches!(reason, PartReason::FoliagePattern | PartReason::AlphaCuts),
+                reason,
+                cut: cut[i],
+                triangles: triangles[i],
+            }
+        })
+        .collect()
+}
+
+/// Per material, the share of its triangles' area its alpha removes: for `MASK` the area
+/// where alpha falls below the cutoff, for `BLEND` the mean of `1 - alpha`; 0 for opaque
+/// materials. Measured at the same texture lookups the scan makes.
+fn cut_fractions(mesh: &Mesh) -> Vec<f32> {
+    let n = CUT_SAMPLES_PER_SIDE;
+    let mut removed = vec![0.0f64; mesh.materials.len()];
+    let mut area = vec![0.0f64; mesh.materials.len()];
+    for t in &mesh.triangles {
+        let material = &mesh.materials[t.material as usize];
+        if matches!(material.alpha_mode, AlphaMode::Opaque) {
+            continue;
+        }
+        let [a, b, c] = t.vertices.map(|v| mesh.positions[v as usize].as_dvec3());
+        let weight = (b - a).cross(c - a).length().max(f64::MIN_POSITIVE);
+        let mut gone = 0.0f64;
+        let mut count = 0usize;
+        for (u, v) in subdivision_centroids(n) {
+            let alpha = mesh.base_color(t, [1.0 - u - v, u, v]).w;
+            gone += match material.alpha_mode {
+                AlphaMode::Mask { cutoff } => f64::from(u8::from(alpha < cutoff)),
+                _ => f64::from(1.0 - alpha.clamp(0.0, 1.0)),
+            };
+            count += 1;
+        }
+        removed[t.material as usize] += weight * gone / count as f64;
+        area[t.material as usize] += weight;
+    }
+    removed
+        .iter()
+        .zip(&area)
+        .map(|(&r, &a)| if a > 0.0 { (r / a) as f32 } else { 0.0 })
+        .collect()
+}
+
+/// Barycentric (u, v) of the centroids of the n^2 sub-triangles of a triangle cut into an
+/// n-subdivision: an even spread over its area.
+fn subdivision_centroids(n: usize) -> impl Iterator<Item = (f32, f32)> {
+    let step = 1.0 / n as f32;
+    (0..n).flat_map(move |i| {
+        (0..n - i).flat_map(move |j| {
+            let (u, v) = (i as f32 * step, j as f32 * step);
+            // The upward sub-triangle at (i, j), and the downward one beside it if any.
+            let up = (u + step / 3.0, v + step / 3.0);
+            let down = (i + j + 1 < n).then_some((u + 2.0 * step / 3.0, v + 2.0 * step / 3.0));
+            std::iter::once(up).chain(down)
+        })
+    })
+}
+
+/// Foliage triangles under `parts` (from [`material_parts`]).
+pub fn foliage_triangles(mesh: &Mesh, parts: &[MaterialPart]) -> Vec<bool> {
     mesh.triangles
         .iter()
-        .map(|t| is_foliage[t.material as usize])
+        .map(|t| parts[t.material as usize].foliage)
         .collect()
 }
 

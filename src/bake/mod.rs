@@ -16,6 +16,7 @@ use regex::Regex;
 
 use crate::import::Mesh;
 use crate::volume::{BakeParameters, DensityModel, Level, Texel, TexelInfo};
+pub use classify::MIN_CUT;
 pub use grid::Grid;
 use scan::{AxisScan, ScanModel};
 
@@ -33,6 +34,8 @@ pub struct BakeSettings {
     pub gamma: Option<f64>,
     /// Case-insensitive pattern on material names marking foliage.
     pub foliage: String,
+    /// Case-insensitive pattern on material names marking wood, before anything else.
+    pub wood: Option<String>,
 }
 
 impl Default for BakeSettings {
@@ -43,6 +46,7 @@ impl Default for BakeSettings {
             density: DensityModel::Transmittance,
             gamma: None,
             foliage: DEFAULT_FOLIAGE.to_string(),
+            wood: None,
         }
     }
 }
@@ -80,37 +84,52 @@ impl BakeSettings {
                 "--gamma {g} must be a positive number of 1/m"
             )));
         }
-        self.foliage_regex().map(|_| ())
+        self.patterns().map(|_| ())
     }
 
-    fn foliage_regex(&self) -> Result<Regex, BakeError> {
-        Regex::new(&format!("(?i){}", self.foliage)).map_err(|e| {
-            // The regex crate explains over several lines; keep its last, the diagnosis.
-            let why = e
-                .to_string()
-                .lines()
-                .last()
-                .unwrap_or_default()
-                .trim_start_matches("error: ")
-                .to_string();
-            BakeError::Settings(format!(
-                "--foliage {:?} is not a valid regular expression: {why}",
-                self.foliage
-            ))
-        })
+    /// The foliage and wood patterns, compiled.
+    fn patterns(&self) -> Result<(Regex, Option<Regex>), BakeError> {
+        Ok((
+            pattern("--foliage", &self.foliage)?,
+            self.wood
+                .as_deref()
+                .map(|w| pattern("--wood", w))
+                .transpose()?,
+        ))
     }
+}
+
+/// A case-insensitive regular expression on material names, from flag `flag`.
+fn pattern(flag: &str, text: &str) -> Result<Regex, BakeError> {
+    Regex::new(&format!("(?i){text}")).map_err(|e| {
+        // The regex crate explains over several lines; keep its last, the diagnosis.
+        let why = e
+            .to_string()
+            .lines()
+            .last()
+            .unwrap_or_default()
+            .trim_start_matches("error: ")
+            .to_string();
+        BakeError::Settings(format!(
+            "{flag} {text:?} is not a valid regular expression: {why}"
+        ))
+    })
 }
 
 /// Largest texture and fine resolutions accepted: 256^3 cells is 700 MiB of voxels already.
 const MAX_RESOLUTION: usize = 256;
 const MAX_FINE: usize = 4096;
+/// Smallest model accepted, metres: below it, extinctions of opaque cells overflow `f32`
+/// (and no tree is a tenth of a millimetre tall).
+const MIN_MODEL_SIZE: f64 = 1e-4;
 
 /// Bakes `mesh` into a texture. Sources and hashes are left empty for the caller to fill in.
 pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     settings.validate()?;
     let grid = fit_grid(mesh, settings)?;
-    let foliage = settings.foliage_regex()?;
-    let is_foliage = classify::foliage_triangles(mesh, &foliage);
+    let (foliage, wood) = settings.patterns()?;
+    let materials = classify::material_parts(mesh, &foliage, wood.as_ref());
+    let is_foliage = classify::foliage_triangles(mesh, &materials);
     let is_closed = classify::closed_triangles(mesh);
     let foliage_triangles = is_foliage.iter().filter(|&&f| f).count() as u64;
     let model = ScanModel::new(mesh, grid, is_foliage, is_closed);
@@ -159,7 +178,9 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
                 fine: settings.fine as u32,
                 foliage_pattern: settings.foliage.clone(),
                 requested_gamma: settings.gamma,
+                wood_pattern: settings.wood.clone(),
             },
+            materials,
         },
         levels,
     })
@@ -171,17 +192,17 @@ fn scan_all(model: &ScanModel, occupancy: bool) -> Vec<AxisScan> {
         .collect()
 }
 
-/// Which triangles of `mesh` are foliage under the foliage pattern a bake recorded
-/// (`BakeParameters::foliage_pattern`), matched as the bake matched it.
-pub fn foliage_triangles(mesh: &Mesh, pattern: &str) -> Result<Vec<bool>, BakeError> {
+/// Which triangles of `mesh` are foliage under the patterns a bake recorded, decided as the
+/// bake decided it (the model must be the one baked: its sources' hashes say so).
+pub fn foliage_triangles(mesh: &Mesh, parameters: &BakeParameters) -> Result<Vec<bool>, BakeError> {
     let settings = BakeSettings {
-        foliage: pattern.to_string(),
+        foliage: parameters.foliage_pattern.clone(),
+        wood: parameters.wood_pattern.clone(),
         ..BakeSettings::default()
     };
-    Ok(classify::foliage_triangles(
-        mesh,
-        &settings.foliage_regex()?,
-    ))
+    let (foliage, wood) = settings.patterns()?;
+    let parts = classify::material_parts(mesh, &foliage, wood.as_ref());
+    Ok(classify::foliage_triangles(mesh, &parts))
 }
 
 /// The extinction (1/m, both parts) each axis's rays estimate, before they are combined into
@@ -192,11 +213,12 @@ pub fn axis_extinctions(
 ) -> Result<(Grid, [Vec<f32>; 3]), BakeError> {
     settings.validate()?;
     let grid = fit_grid(mesh, settings)?;
-    let foliage = settings.foliage_regex()?;
+    let (foliage, wood) = settings.patterns()?;
+    let parts = classify::material_parts(mesh, &foliage, wood.as_ref());
     let model = ScanModel::new(
         mesh,
         grid,
-        classify::foliage_triangles(mesh, &foliage),
+        classify::foliage_triangles(mesh, &parts),
         classify::closed_triangles(mesh),
     );
     let scans = scan_all(&model, false);
@@ -230,6 +252,13 @@ fn fit_grid(mesh: &Mesh, settings: &BakeSettings) -> Result<Grid, BakeError> {
         return Err(BakeError::Model(
             "the model's extent overflows (coordinates near the float limit)".into(),
         ));
+    }
+    let size = extent.max_element();
+    if size < MIN_MODEL_SIZE {
+        return Err(BakeError::Model(format!(
+            "the model is {size:e} m across, smaller than {MIN_MODEL_SIZE} m; glTF is in metres: \
+             scale the model (its densities would overflow)"
+        )));
     }
     for (a, axis) in ['X', 'Y', 'Z'].into_iter().enumerate() {
         if extent[a] <= 1e-6 * extent.max_element() {

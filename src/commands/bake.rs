@@ -25,12 +25,13 @@ pub fn run(args: &BakeArgs, quiet: bool) -> anyhow::Result<()> {
         },
         gamma: args.gamma,
         foliage: args.foliage.clone(),
+        wood: args.wood.clone(),
     };
     if args.gamma.is_some() && settings.density != DensityModel::Occupancy {
         anyhow::bail!("--gamma applies to --density occupancy only");
     }
     settings.validate()?;
-    let model = import::load_surface(&args.input, "a tree")?;
+    let model = import::load_surface(&args.input, "to bake")?;
     for w in &model.warnings {
         super::warn(w);
     }

@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use sha2::{Digest, Sha256};
 
-use texel_forest::formats::{instances, texel};
+use texel_forest::formats::{container, instances, texel};
 use texel_forest::inspect::{instances as forest_view, pictures, texel as summary};
 use texel_forest::output::write_atomic;
 use texel_forest::terrain::Terrain;
@@ -70,7 +70,19 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
         if args.output.is_some() {
             bail!("-o names a picture: give --slice or --projection with it");
         }
-        let s = summary::summarize(&texel, bytes.len() as u64);
+        let preamble = container::preamble(&bytes).unwrap_or(container::Preamble {
+            major: texel::MAJOR,
+            minor: texel::MINOR,
+            header_len: 0,
+            raw_len: 0,
+            stored_len: 0,
+        });
+        let facts = summary::FileFacts {
+            bytes: bytes.len() as u64,
+            minor: preamble.minor,
+            raw_bytes: preamble.raw_len,
+        };
+        let s = summary::summarize(&texel, facts);
         return print_summary(&s, args.json, summary::to_text);
     }
     let Some(out) = &args.output else {

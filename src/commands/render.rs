@@ -123,7 +123,7 @@ pub fn run(args: &RenderArgs, quiet: bool) -> anyhow::Result<()> {
         &forest.info.terrain[0].sha256,
         &args.instances,
     )?;
-    let terrain = import::load_surface(&terrain_path, "a terrain")?;
+    let terrain = import::load_surface(&terrain_path, "to render as a terrain")?;
     dependencies.extend(terrain.sources.iter().map(|s| s.path.clone()));
 
     let mut texels: Vec<Texel> = Vec::new();
@@ -383,8 +383,8 @@ fn tree_meshes(
             dependencies.push(file);
         }
         let file = dir.join(&model.path);
-        let m = import::load_surface(&file, "a tree")?;
-        let foliage = bake::foliage_triangles(&m.mesh, &t.info.parameters.foliage_pattern)
+        let m = import::load_surface(&file, "to draw as a tree")?;
+        let foliage = bake::foliage_triangles(&m.mesh, &t.info.parameters)
             .with_context(|| path.display().to_string())?;
         meshes.push(TreeMesh::new(m.mesh, foliage));
     }

@@ -44,13 +44,13 @@ const ZSTD_LEVEL: i32 = 9;
 pub enum ContainerError {
     #[error("not a {format} file (wrong magic bytes{hint})")]
     Magic { format: &'static str, hint: String },
-    #[error(
-        "{format} format version {major}.{minor} is newer than this reader (1.x); update texel-forest or re-bake"
-    )]
+    #[error("{}", version_message(format, *major, *minor, *supported))]
     Version {
         format: &'static str,
         major: u16,
         minor: u16,
+        /// The major version this reader implements.
+        supported: u16,
     },
     #[error("truncated: {0}")]
     Truncated(String),
@@ -58,6 +58,20 @@ pub enum ContainerError {
     Corrupt(String),
     #[error("too large to write: {0}")]
     TooLarge(String),
+}
+
+fn version_message(format: &str, major: u16, minor: u16, supported: u16) -> String {
+    if major > supported {
+        format!(
+            "{format} format version {major}.{minor} is newer than this reader ({supported}.x); \
+             update texel-forest, or re-create the file with this one"
+        )
+    } else {
+        format!(
+            "{format} format version {major}.{minor} is older than this reader ({supported}.x) \
+             and cannot be read; re-create the file with this texel-forest"
+        )
+    }
 }
 
 /// A parsed container: the format's version, its header bytes and its decompressed payload.
@@ -113,6 +127,27 @@ fn u32_at(b: &[u8], at: usize) -> u32 {
 }
 fn u64_at(b: &[u8], at: usize) -> u64 {
     u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+}
+
+/// The fixed fields of a container's preamble, read without any check: for describing a file
+/// that has already been read successfully.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Preamble {
+    pub major: u16,
+    pub minor: u16,
+    pub header_len: u32,
+    pub raw_len: u64,
+    pub stored_len: u64,
+}
+
+pub fn preamble(bytes: &[u8]) -> Option<Preamble> {
+    (bytes.len() >= PREAMBLE).then(|| Preamble {
+        major: u16_at(bytes, 8),
+        minor: u16_at(bytes, 10),
+        header_len: u32_at(bytes, 12),
+        raw_len: u64_at(bytes, 16),
+        stored_len: u64_at(bytes, 24),
+    })
 }
 
 /// A container whose framing and checksum have been verified, payload still compressed.
@@ -175,6 +210,7 @@ pub fn open<'a>(
             format,
             major: file_major,
             minor,
+            supported: major,
         });
     }
     let header_len = u32_at(bytes, 12) as u64;
@@ -223,12 +259,54 @@ pub fn open<'a>(
 }
 
 impl Opened<'_> {
-    /// Step 6: decompresses as a stream with a limit, never trusting the declared length
-    /// for an allocation.
+    /// The payload's length once decompressed, as the preamble declares it.
+    pub fn raw_len(&self) -> u64 {
+        self.raw_len
+    }
+
+    /// Step 6: checks that the payload is exactly one zstd frame (no skippable frame, nothing
+    /// after it) that declares its content size as R, then decompresses it as a stream with a
+    /// limit, never trusting the declared length for an allocation.
     pub fn payload(&self) -> Result<Vec<u8>, ContainerError> {
+        use zstd::zstd_safe;
+        let frame = self.compressed;
+        if !frame.starts_with(&ZSTD_MAGIC) {
+            return Err(ContainerError::Corrupt(
+                "the payload does not start with a zstd frame".into(),
+            ));
+        }
+        match zstd_safe::find_frame_compressed_size(frame) {
+            Ok(n) if n == frame.len() => {}
+            Ok(n) => {
+                return Err(ContainerError::Corrupt(format!(
+                    "{} bytes follow the payload's zstd frame (one frame only)",
+                    frame.len() - n
+                )));
+            }
+            Err(_) => {
+                return Err(ContainerError::Corrupt(
+                    "the payload's zstd frame is damaged".into(),
+                ));
+            }
+        }
+        match zstd_safe::get_frame_content_size(frame) {
+            Ok(Some(n)) if n == self.raw_len => {}
+            Ok(Some(n)) => {
+                return Err(ContainerError::Corrupt(format!(
+                    "the payload's zstd frame holds {n} bytes, the preamble says {}",
+                    self.raw_len
+                )));
+            }
+            _ => {
+                return Err(ContainerError::Corrupt(
+                    "the payload's zstd frame does not declare its content size".into(),
+                ));
+            }
+        }
         let mut payload = Vec::new();
-        let decoder = zstd::stream::read::Decoder::with_buffer(self.compressed)
-            .map_err(|e| ContainerError::Corrupt(format!("payload: {e}")))?;
+        let decoder = zstd::stream::read::Decoder::with_buffer(frame)
+            .map_err(|e| ContainerError::Corrupt(format!("payload: {e}")))?
+            .single_frame();
         decoder
             .take(self.raw_len + 1)
             .read_to_end(&mut payload)
@@ -243,6 +321,9 @@ impl Opened<'_> {
         Ok(payload)
     }
 }
+
+/// The magic number that opens a zstd frame (RFC 8878, section 3.1.1), as stored.
+const ZSTD_MAGIC: [u8; 4] = [0x28, 0xB5, 0x2F, 0xFD];
 
 #[cfg(test)]
 mod tests {
@@ -282,6 +363,51 @@ mod tests {
         }
     }
 
+    /// A container around `frames` as its payload, with a correct checksum.
+    fn with_payload(frames: &[u8], raw_len: u64) -> Vec<u8> {
+        let mut out = Vec::new();
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&1u16.to_le_bytes());
+        out.extend_from_slice(&0u16.to_le_bytes());
+        out.extend_from_slice(&0u32.to_le_bytes());
+        out.extend_from_slice(&raw_len.to_le_bytes());
+        out.extend_from_slice(&(frames.len() as u64).to_le_bytes());
+        out.extend_from_slice(frames);
+        let crc = crc32fast::hash(&out);
+        out.extend_from_slice(&crc.to_le_bytes());
+        out
+    }
+
+    #[test]
+    fn a_payload_of_more_than_one_frame_is_refused() {
+        let one = zstd::bulk::compress(b"abcd", 9).unwrap();
+        assert!(read(&with_payload(&one, 4), MAGIC, "test", 1).is_ok());
+        let two = [one.clone(), one.clone()].concat();
+        let e = read(&with_payload(&two, 8), MAGIC, "test", 1).unwrap_err();
+        assert!(
+            e.to_string().contains("follow the payload's zstd frame"),
+            "{e}"
+        );
+        // A skippable frame (magic 0x184D2A50) after the data frame, and before it.
+        let skippable = [&[0x50, 0x2A, 0x4D, 0x18], &4u32.to_le_bytes()[..], b"junk"].concat();
+        let after = [one.clone(), skippable.clone()].concat();
+        assert!(read(&with_payload(&after, 4), MAGIC, "test", 1).is_err());
+        let before = [skippable, one].concat();
+        assert!(read(&with_payload(&before, 4), MAGIC, "test", 1).is_err());
+    }
+
+    #[test]
+    fn frames_record_their_content_size_and_no_checksum() {
+        let bytes = write(MAGIC, 1, 0, b"", &[1u8; 1000]).unwrap();
+        let frame = &bytes[PREAMBLE..bytes.len() - 4];
+        // Frame header descriptor (RFC 8878 3.1.1.1.1): the checksum flag is bit 2.
+        assert_eq!(frame[4] & 0b100, 0);
+        assert_eq!(
+            zstd::zstd_safe::get_frame_content_size(frame).unwrap(),
+            Some(1000)
+        );
+    }
+
     #[test]
     fn newer_major_version_is_refused_with_advice() {
         let bytes = write(MAGIC, 2, 0, b"", b"").unwrap();
@@ -291,9 +417,13 @@ mod tests {
             ContainerError::Version {
                 format: "test",
                 major: 2,
-                minor: 0
+                minor: 0,
+                supported: 1
             }
         );
         assert!(e.to_string().contains("newer"));
+        let bytes = write(MAGIC, 0, 3, b"", b"").unwrap();
+        let e = read(&bytes, MAGIC, "test", 1).unwrap_err().to_string();
+        assert!(e.contains("0.3 is older"), "{e}");
     }
 }

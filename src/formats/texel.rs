@@ -1,18 +1,27 @@
 //! `.texel` v1: a baked 3D texture (see `formats/texel.md`, which this module mirrors).
+//!
+//! Reading follows the container's order: framing and checksum, then the header (decoded and
+//! validated, limits checked), and only then the payload, whose decompressed size the header
+//! has already justified.
 
 use bincode::{Decode, Encode};
 
 use super::container::{self, ContainerError, header_config};
-use crate::volume::{BakeParameters, DensityModel, Level, SourceFile, Texel, TexelInfo};
+use crate::limits::{LimitError, Limits};
+use crate::volume::{
+    BakeParameters, DensityModel, Level, MaterialPart, PartReason, SourceFile, Texel, TexelInfo,
+};
 
 pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";
 pub const MAJOR: u16 = 1;
-pub const MINOR: u16 = 0;
+/// Minor version 1 appends the wood pattern and the material table to the header.
+pub const MINOR: u16 = 1;
 
 /// Limits a reader enforces before it allocates anything a header asks for.
 const MAX_LEVELS: usize = 16;
 const MAX_SIDE: u32 = 4096;
 const MAX_CHANNELS: usize = 64;
+const MAX_MATERIALS: usize = 1 << 16;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Encode, Decode)]
 pub enum Encoding {
@@ -45,7 +54,16 @@ struct LevelHeader {
     cell: f64,
 }
 
-/// The header exactly as it is encoded; field order is the byte order.
+/// `Parameters` as v1.0 encodes them.
+#[derive(Clone, Debug, PartialEq, Encode, Decode)]
+struct Parameters {
+    resolution: u32,
+    fine: u32,
+    foliage_pattern: String,
+    requested_gamma: Option<f64>,
+}
+
+/// The v1.0 header exactly as it is encoded; field order is the byte order.
 #[derive(Clone, Debug, PartialEq, Encode, Decode)]
 struct Header {
     generator: String,
@@ -59,9 +77,55 @@ struct Header {
     mesh_coverage: [f64; 3],
     sources: Vec<SourceFile>,
     inputs_sha256: [u8; 32],
-    parameters: BakeParameters,
+    parameters: Parameters,
     levels: Vec<LevelHeader>,
     channels: Vec<ChannelHeader>,
+}
+
+/// What minor version 1 appends to the header.
+#[derive(Clone, Debug, PartialEq, Encode, Decode, Default)]
+struct HeaderV1_1 {
+    wood_pattern: Option<String>,
+    materials: Vec<MaterialRecord>,
+}
+
+#[derive(Clone, Debug, PartialEq, Encode, Decode)]
+struct MaterialRecord {
+    name: String,
+    reason: Reason,
+    cut: f32,
+    triangles: u64,
+}
+
+/// `PartReason` as encoded: the variant index is the byte value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Encode, Decode)]
+enum Reason {
+    WoodPattern,
+    FoliagePattern,
+    AlphaCuts,
+    Solid,
+}
+
+impl From<PartReason> for Reason {
+    fn from(r: PartReason) -> Reason {
+        match r {
+            PartReason::WoodPattern => Reason::WoodPattern,
+            PartReason::FoliagePattern => Reason::FoliagePattern,
+            PartReason::AlphaCuts => Reason::AlphaCuts,
+            PartReason::Solid => Reason::Solid,
+        }
+    }
+}
+
+impl From<Reason> for PartReason {
+    fn from(r: Reason) -> PartReason {
+        match r {
+            Reason::WoodPattern => PartReason::WoodPattern,
+            Reason::FoliagePattern => PartReason::FoliagePattern,
+            Reason::AlphaCuts => PartReason::AlphaCuts,
+            Reason::Solid => PartReason::Solid,
+        }
+    }
 }
 
 /// The channels of v1.0, in payload order. Later minor versions may append channels, which
@@ -97,16 +161,23 @@ pub enum TexelError {
     Container(#[from] ContainerError),
     #[error("corrupt header: {0}")]
     Header(String),
+    #[error("corrupt payload: {0}")]
+    Payload(String),
+    #[error(transparent)]
+    Limit(#[from] LimitError),
+    /// What a writer refuses to write, because readers would refuse it.
+    #[error("cannot write this texture: {0}")]
+    Unwritable(String),
 }
 
 fn unorm16(v: f32) -> [u8; 2] {
     ((v.clamp(0.0, 1.0) * 65535.0).round() as u16).to_le_bytes()
 }
 
-/// Encodes a texture as `.texel` bytes (deterministic: same texture, same bytes).
-pub fn encode(texel: &Texel) -> Result<Vec<u8>, ContainerError> {
+/// Encodes a texture as `.texel` bytes (deterministic: same texture, same bytes). Refuses what
+/// a reader would refuse: the header's rules and non-finite or negative values.
+pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
     let info = &texel.info;
-    let channels = v1_channels(info.density_model);
     let header = Header {
         generator: info.generator.clone(),
         model_min: info.model_min,
@@ -119,7 +190,12 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, ContainerError> {
         mesh_coverage: info.mesh_coverage,
         sources: info.sources.clone(),
         inputs_sha256: info.inputs_sha256,
-        parameters: info.parameters.clone(),
+        parameters: Parameters {
+            resolution: info.parameters.resolution,
+            fine: info.parameters.fine,
+            foliage_pattern: info.parameters.foliage_pattern.clone(),
+            requested_gamma: info.parameters.requested_gamma,
+        },
         levels: texel
             .levels
             .iter()
@@ -128,10 +204,32 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, ContainerError> {
                 cell: l.cell,
             })
             .collect(),
-        channels,
+        channels: v1_channels(info.density_model),
     };
-    let header = bincode::encode_to_vec(&header, header_config())
+    let extension = HeaderV1_1 {
+        wood_pattern: info.parameters.wood_pattern.clone(),
+        materials: info
+            .materials
+            .iter()
+            .map(|m| MaterialRecord {
+                name: m.name.clone(),
+                reason: m.reason.into(),
+                cut: m.cut,
+                triangles: m.triangles,
+            })
+            .collect(),
+    };
+    let unwritable = |e: TexelError| TexelError::Unwritable(e.to_string());
+    validate(&header, &extension).map_err(unwritable)?;
+    for level in &texel.levels {
+        check_values(level).map_err(unwritable)?;
+    }
+    let mut header_bytes = bincode::encode_to_vec(&header, header_config())
         .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?;
+    header_bytes.extend(
+        bincode::encode_to_vec(&extension, header_config())
+            .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?,
+    );
     let mut payload = Vec::new();
     for level in &texel.levels {
         for part in 0..2 {
@@ -154,30 +252,51 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, ContainerError> {
             );
         }
     }
-    container::write(MAGIC, MAJOR, MINOR, &header, &payload)
+    Ok(container::write(
+        MAGIC,
+        MAJOR,
+        MINOR,
+        &header_bytes,
+        &payload,
+    )?)
 }
 
-fn decode_header(bytes: &[u8]) -> Result<Header, TexelError> {
-    let (header, used): (Header, usize) = bincode::decode_from_slice(bytes, header_config())
-        .map_err(|e| TexelError::Header(e.to_string()))?;
-    if used != bytes.len() {
+/// Decodes the header of a file of minor version `minor`: the v1.0 fields, then those of
+/// every later minor version this reader knows. Bytes after those are refused, unless the file
+/// is of a newer minor version, whose appended fields this reader skips.
+fn decode_header(bytes: &[u8], minor: u16) -> Result<(Header, HeaderV1_1), TexelError> {
+    let decode_error = |e: bincode::error::DecodeError| TexelError::Header(e.to_string());
+    let (header, used): (Header, usize) =
+        bincode::decode_from_slice(bytes, header_config()).map_err(decode_error)?;
+    let mut rest = &bytes[used..];
+    let extension = if minor >= 1 {
+        let (extension, used): (HeaderV1_1, usize) =
+            bincode::decode_from_slice(rest, header_config()).map_err(decode_error)?;
+        rest = &rest[used..];
+        extension
+    } else {
+        HeaderV1_1::default()
+    };
+    if !rest.is_empty() && minor <= MINOR {
         return Err(TexelError::Header(format!(
             "{} bytes after the header",
-            bytes.len() - used
+            rest.len()
         )));
     }
-    validate(&header)?;
-    Ok(header)
+    validate(&header, &extension)?;
+    Ok((header, extension))
 }
 
 /// The header of `.texel` bytes (checked, payload not decompressed): for tools that need a
 /// texture's bounds but not its voxels.
 pub fn read_info(bytes: &[u8]) -> Result<TexelInfo, TexelError> {
     let opened = container::open(bytes, MAGIC, "texel", MAJOR)?;
-    Ok(info_of(decode_header(opened.header)?))
+    let (header, extension) = decode_header(opened.header, opened.minor)?;
+    Ok(info_of(header, extension))
 }
 
-fn info_of(header: Header) -> TexelInfo {
+fn info_of(header: Header, extension: HeaderV1_1) -> TexelInfo {
+    let p = header.parameters;
     TexelInfo {
         generator: header.generator,
         model_min: header.model_min,
@@ -190,40 +309,66 @@ fn info_of(header: Header) -> TexelInfo {
         mesh_coverage: header.mesh_coverage,
         sources: header.sources,
         inputs_sha256: header.inputs_sha256,
-        parameters: header.parameters,
+        parameters: BakeParameters {
+            resolution: p.resolution,
+            fine: p.fine,
+            foliage_pattern: p.foliage_pattern,
+            requested_gamma: p.requested_gamma,
+            wood_pattern: extension.wood_pattern,
+        },
+        materials: extension
+            .materials
+            .into_iter()
+            .map(|m| {
+                let reason = PartReason::from(m.reason);
+                MaterialPart {
+                    name: m.name,
+                    foliage: matches!(reason, PartReason::FoliagePattern | PartReason::AlphaCuts),
+                    reason,
+                    cut: m.cut,
+                    triangles: m.triangles,
+                }
+            })
+            .collect(),
     }
 }
 
-/// Decodes `.texel` bytes, validating every size before use.
+/// Decodes `.texel` bytes within the default [`Limits`].
 pub fn decode(bytes: &[u8]) -> Result<Texel, TexelError> {
-    let c = container::read(bytes, MAGIC, "texel", MAJOR)?;
-    let bad = |m: String| TexelError::Header(m);
-    let header = decode_header(&c.header)?;
+    decode_with(bytes, &Limits::default())
+}
 
-    // Locate every channel's array within each level.
-    let per_cell: usize = header
-        .channels
-        .iter()
-        .map(|ch| ch.components as usize * ch.encoding.size())
-        .sum();
-    let expected: u64 = header
+/// Decodes `.texel` bytes, validating every size before use.
+pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
+    let opened = container::open(bytes, MAGIC, "texel", MAJOR)?;
+    let (header, extension) = decode_header(opened.header, opened.minor)?;
+    let bad = |m: String| TexelError::Header(m);
+
+    // Everything the payload must hold follows from the header: check it before inflating.
+    let cells: Vec<u64> = header
         .levels
         .iter()
-        .map(|l| l.dims.iter().map(|&d| d as u64).product::<u64>() * per_cell as u64)
+        .map(|l| l.dims.iter().map(|&d| d as u64).product())
+        .collect();
+    limits.check_cells(cells.iter().sum(), "the texture's cell count (all levels)")?;
+    let per_cell: u64 = header
+        .channels
+        .iter()
+        .map(|ch| ch.components as u64 * ch.encoding.size() as u64)
         .sum();
-    if expected != c.payload.len() as u64 {
+    let expected: u64 = cells.iter().map(|c| c * per_cell).sum();
+    if expected != opened.raw_len() {
         return Err(bad(format!(
-            "levels and channels need {expected} payload bytes, the file has {}",
-            c.payload.len()
+            "levels and channels need {expected} payload bytes, the container says {}",
+            opened.raw_len()
         )));
     }
     let find = |name: &str| header.channels.iter().position(|ch| ch.name == name);
     let required = v1_channels(header.density_model);
     let mut slots = Vec::new();
     for want in &required {
-        let Some(i) = find(&want.name) else {
-            return Err(bad(format!("required channel {} is missing", want.name)));
-        };
+        let i = find(&want.name)
+            .ok_or_else(|| bad(format!("required channel {} is missing", want.name)))?;
         let have = &header.channels[i];
         if (have.components, have.encoding) != (want.components, want.encoding) {
             return Err(bad(format!(
@@ -233,6 +378,7 @@ pub fn decode(bytes: &[u8]) -> Result<Texel, TexelError> {
         }
         slots.push(i);
     }
+    let payload = opened.payload()?;
 
     let mut levels = Vec::with_capacity(header.levels.len());
     let mut at = 0usize;
@@ -248,7 +394,7 @@ pub fn decode(bytes: &[u8]) -> Result<Texel, TexelError> {
             let i = slots[slot];
             let len =
                 n * header.channels[i].components as usize * header.channels[i].encoding.size();
-            &c.payload[offsets[i]..offsets[i] + len]
+            &payload[offsets[i]..offsets[i] + len]
         };
         let f32s = |b: &[u8]| -> Vec<f32> {
             b.chunks_exact(4)
@@ -270,34 +416,41 @@ pub fn decode(bytes: &[u8]) -> Result<Texel, TexelError> {
             gradient: [vec3(f32s(bytes_of(2))), vec3(f32s(bytes_of(3)))],
             albedo: [vec3(unorm(bytes_of(4))), vec3(unorm(bytes_of(5)))],
         };
-        for part in 0..2 {
-            if let Some(v) = level.density[part]
-                .iter()
-                .find(|v| !(v.is_finite() && **v >= 0.0))
-            {
-                return Err(bad(format!(
-                    "density {v} in a level of {dims:?} cells is not a finite non-negative number"
-                )));
-            }
-            if level.gradient[part]
-                .iter()
-                .flatten()
-                .any(|v| !v.is_finite())
-            {
-                return Err(bad(format!(
-                    "a gradient in a level of {dims:?} cells is not finite"
-                )));
-            }
-        }
+        check_values(&level)?;
         levels.push(level);
     }
     Ok(Texel {
-        info: info_of(header),
+        info: info_of(header, extension),
         levels,
     })
 }
 
-fn validate(h: &Header) -> Result<(), TexelError> {
+/// Densities must be finite and non-negative, gradients finite.
+fn check_values(level: &Level) -> Result<(), TexelError> {
+    let dims = level.dims;
+    for part in 0..2 {
+        if let Some(v) = level.density[part]
+            .iter()
+            .find(|v| !(v.is_finite() && **v >= 0.0))
+        {
+            return Err(TexelError::Payload(format!(
+                "density {v} in a level of {dims:?} cells is not a finite non-negative number"
+            )));
+        }
+        if level.gradient[part]
+            .iter()
+            .flatten()
+            .any(|v| !v.is_finite())
+        {
+            return Err(TexelError::Payload(format!(
+                "a gradient in a level of {dims:?} cells is not finite"
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn validate(h: &Header, extension: &HeaderV1_1) -> Result<(), TexelError> {
     let bad = |m: String| Err(TexelError::Header(m));
     let finite3 = |v: &[f64; 3]| v.iter().all(|c| c.is_finite());
     if !(finite3(&h.model_min) && finite3(&h.model_max) && finite3(&h.origin)) {
@@ -331,6 +484,11 @@ fn validate(h: &Header) -> Result<(), TexelError> {
             ch.name, ch.components
         ));
     }
+    for (i, ch) in h.channels.iter().enumerate() {
+        if h.channels[..i].iter().any(|c| c.name == ch.name) {
+            return bad(format!("channel {} appears twice", ch.name));
+        }
+    }
     let first = &h.levels[0];
     if first.dims.iter().any(|&d| d == 0 || d > MAX_SIDE) {
         return bad(format!(
@@ -338,17 +496,56 @@ fn validate(h: &Header) -> Result<(), TexelError> {
             first.dims
         ));
     }
+    if !(first.cell.is_finite() && first.cell > 0.0) {
+        return bad(format!("cell size {} is not a positive number", first.cell));
+    }
     for (i, pair) in h.levels.windows(2).enumerate() {
         let want = pair[0].dims.map(|d| d.div_ceil(2));
+        if pair[0].dims == [1, 1, 1] {
+            return bad(format!("level {} follows a single-cell level", i + 1));
+        }
         if pair[1].dims != want || pair[1].cell != pair[0].cell * 2.0 {
-            return bad(format!("level {} is not half of level {i}", i + 1));
+            return bad(format!(
+                "level {} is not half of level {i} (cells {:?} of {} m, expected {want:?} of {} m)",
+                i + 1,
+                pair[1].dims,
+                pair[1].cell,
+                pair[0].cell * 2.0
+            ));
         }
     }
     if h.levels.last().is_some_and(|l| l.dims != [1, 1, 1]) {
         return bad("the mip chain does not end in a single cell".into());
     }
-    if !(first.cell.is_finite() && first.cell > 0.0) {
-        return bad(format!("cell size {} is not a positive number", first.cell));
+    if h.foliage_triangles > h.triangles {
+        return bad(format!(
+            "{} foliage triangles of {} in all",
+            h.foliage_triangles, h.triangles
+        ));
+    }
+    let m = &extension.materials;
+    if m.len() > MAX_MATERIALS {
+        return bad(format!("{} materials (at most {MAX_MATERIALS})", m.len()));
+    }
+    if !m.is_empty() {
+        let total: u64 = m.iter().map(|r| r.triangles).fold(0, u64::saturating_add);
+        let foliage: u64 = m
+            .iter()
+            .filter(|r| matches!(r.reason, Reason::FoliagePattern | Reason::AlphaCuts))
+            .map(|r| r.triangles)
+            .fold(0, u64::saturating_add);
+        if (total, foliage) != (h.triangles, h.foliage_triangles) {
+            return bad(format!(
+                "the materials hold {total} triangles ({foliage} foliage), the header says {} ({})",
+                h.triangles, h.foliage_triangles
+            ));
+        }
+        if let Some(r) = m.iter().find(|r| !(0.0..=1.0).contains(&r.cut)) {
+            return bad(format!(
+                "material {:?} has a cut share of {} (not within 0 to 1)",
+                r.name, r.cut
+            ));
+        }
     }
     Ok(())
 }
@@ -401,7 +598,24 @@ pub(crate) mod tests {
                     fine: 20,
                     foliage_pattern: "leaf".into(),
                     requested_gamma: None,
+                    wood_pattern: Some("bark".into()),
                 },
+                materials: vec![
+                    MaterialPart {
+                        name: "bark".into(),
+                        foliage: false,
+                        reason: PartReason::WoodPattern,
+                        cut: 0.0,
+                        triangles: 8,
+                    },
+                    MaterialPart {
+                        name: "leaf card".into(),
+                        foliage: true,
+                        reason: PartReason::AlphaCuts,
+                        cut: 0.75,
+                        triangles: 4,
+                    },
+                ],
             },
             levels,
         }
@@ -455,12 +669,69 @@ pub(crate) mod tests {
         assert_eq!(&h[281..289], &0.25f64.to_le_bytes());
     }
 
+    /// `bytes` with the container's CRC recomputed after an edit.
+    fn recrc(mut bytes: Vec<u8>) -> Vec<u8> {
+        let body = bytes.len() - 4;
+        let crc = crc32fast::hash(&bytes[..body]);
+        bytes[body..].copy_from_slice(&crc.to_le_bytes());
+        bytes
+    }
+
     #[test]
-    fn a_header_that_breaks_the_mip_rule_is_refused() {
+    fn a_header_that_breaks_the_mip_rule_is_refused_by_writer_and_reader() {
         let mut t = sample_texel(2);
-        t.levels[1].dims = [3, 2, 1];
         t.levels[1] = Level::empty([3, 2, 1], 0.5);
-        let e = decode(&encode(&t).unwrap()).unwrap_err();
-        assert!(e.to_string().contains("not half"), "{e}");
+        let e = encode(&t).unwrap_err();
+        assert!(
+            e.to_string().contains("cannot write") && e.to_string().contains("not half"),
+            "{e}"
+        );
+        // The same defect forged into a written file: level 1's cell size (header offset 289
+        // + 20) no longer doubles.
+        let mut bytes = encode(&sample_texel(2)).unwrap();
+        let at = container::PREAMBLE + 289 + 12;
+        bytes[at..at + 8].copy_from_slice(&0.75f64.to_le_bytes());
+        let e = decode(&recrc(bytes)).unwrap_err().to_string();
+        assert!(e.contains("level 1 is not half of level 0"), "{e}");
+    }
+
+    #[test]
+    fn minor_versions_append_header_fields_that_older_readers_skip() {
+        let t = sample_texel(3);
+        let bytes = encode(&t).unwrap();
+        let p = container::preamble(&bytes).unwrap();
+        // The same file with four more header bytes, as a newer minor version would append.
+        let grow = |minor: u16| {
+            let h = container::PREAMBLE + p.header_len as usize;
+            let mut b = bytes[..h].to_vec();
+            b[10..12].copy_from_slice(&minor.to_le_bytes());
+            b[12..16].copy_from_slice(&(p.header_len + 4).to_le_bytes());
+            b.extend_from_slice(b"more");
+            b.extend_from_slice(&bytes[h..]);
+            recrc(b)
+        };
+        assert_eq!(decode(&grow(MINOR + 1)).unwrap(), t);
+        let e = decode(&grow(MINOR)).unwrap_err().to_string();
+        assert!(e.contains("4 bytes after the header"), "{e}");
+    }
+
+    #[test]
+    fn a_v1_0_file_reads_without_the_material_table() {
+        let mut t = sample_texel(4);
+        let bytes = encode(&t).unwrap();
+        let p = container::preamble(&bytes).unwrap();
+        // Drop the v1.1 fields: wood pattern `Some("bark")` (1 + 8 + 4 bytes) and the
+        // material table, which end the header.
+        let table = 8 + (8 + 4 + 4 + 4 + 8) + (8 + 9 + 4 + 4 + 8);
+        let cut = 13 + table;
+        let h = container::PREAMBLE + p.header_len as usize;
+        let mut b = bytes[..h - cut].to_vec();
+        b[10..12].copy_from_slice(&0u16.to_le_bytes());
+        b[12..16].copy_from_slice(&(p.header_len - cut as u32).to_le_bytes());
+        b.extend_from_slice(&bytes[h..]);
+        let back = decode(&recrc(b)).unwrap();
+        t.info.materials.clear();
+        t.info.parameters.wood_pattern = None;
+        assert_eq!(back, t);
     }
 }

@@ -63,6 +63,12 @@ fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
 impl Document {
     pub fn open(path: &Path) -> Result<Document, ImportError> {
         let bytes = read_file(path)?;
+        Document::parse(path, bytes)
+    }
+
+    /// A document from the bytes of the file at `path` (which names it in errors and anchors
+    /// its relative URIs).
+    pub fn parse(path: &Path, bytes: Vec<u8>) -> Result<Document, ImportError> {
         let source = Source {
             path: path.to_path_buf(),
             sha256: sha256(&bytes),
@@ -81,8 +87,7 @@ impl Document {
             ));
         }
         check_extensions(path, json_bytes)?;
-        let root: json::Root = serde_json::from_slice(json_bytes)
-            .map_err(|e| ImportError::invalid(path, "", format!("not valid glTF 2.0 JSON: {e}")))?;
+        let root = parse_root(path, json_bytes)?;
         if !root.asset.version.starts_with("2.") {
             return Err(ImportError::unsupported(
                 path,
@@ -263,6 +268,40 @@ fn split_glb<'a>(
     Ok((json_chunk, bin_chunk))
 }
 
+/// The typed glTF root, with every problem named by its JSON path.
+fn parse_root(path: &Path, json_bytes: &[u8]) -> Result<json::Root, ImportError> {
+    let not_json =
+        |e: serde_json::Error| ImportError::invalid(path, "", format!("not valid JSON: {e}"));
+    let mut value: serde_json::Value = serde_json::from_slice(json_bytes).map_err(not_json)?;
+    // glTF 2.0 makes `scene.nodes` optional (an empty scene); gltf-json requires it.
+    if let Some(scenes) = value.get_mut("scenes").and_then(|s| s.as_array_mut()) {
+        for scene in scenes.iter_mut().filter_map(|s| s.as_object_mut()) {
+            scene
+                .entry("nodes")
+                .or_insert_with(|| serde_json::Value::Array(Vec::new()));
+        }
+    }
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let field = e.path().to_string();
+        let field = if field == "." { String::new() } else { field };
+        ImportError::invalid(
+            path,
+            field,
+            format!("not valid glTF 2.0: {}", e.into_inner()),
+        )
+    })
+}
+
+/// What to do about a compression extension we cannot decode.
+fn decompression_advice(extension: &str) -> &'static str {
+    if extension.contains("draco") {
+        "re-export the model without Draco compression (Blender: untick Compression), or \
+         decompress it with `gltf-transform copy`"
+    } else {
+        "re-run gltfpack without -c/-cc, or decompress the model with `gltf-transform copy`"
+    }
+}
+
 /// Refuses compressed geometry and other required extensions we cannot honour, before the JSON
 /// is parsed into typed structures (whose errors would be far less clear).
 fn check_extensions(path: &Path, json_bytes: &[u8]) -> Result<(), ImportError> {
@@ -280,8 +319,8 @@ fn check_extensions(path: &Path, json_bytes: &[u8]) -> Result<(), ImportError> {
                 path,
                 "extensionsRequired",
                 format!(
-                    "mesh compression {name} is not supported; export the model without \
-                     compression (e.g. `gltf-transform copy` or Blender without Draco)"
+                    "mesh compression {name} is not supported; {}",
+                    decompression_advice(name)
                 ),
             ));
         }

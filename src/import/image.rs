@@ -28,6 +28,8 @@ pub struct Texture {
     pub texels: Vec<[u8; 4]>,
     pub wrap: [WrapMode; 2],
     pub nearest: bool,
+    /// Whether the image has an alpha channel (without one, alpha is 1 everywhere).
+    pub has_alpha: bool,
 }
 
 /// sRGB-encoded 8-bit value to linear, per IEC 61966-2-1.
@@ -180,7 +182,8 @@ pub(super) fn load_texture(
             ));
         }
     };
-    let decoded = decode(&bytes).map_err(|e| ImportError::unsupported(&path, &here, e))?;
+    let (decoded, has_alpha) =
+        decode(&bytes).map_err(|e| ImportError::unsupported(&path, &here, e))?;
     let (width, height) = decoded.dimensions();
     let texels = decoded.pixels().map(|p| p.0).collect();
     Ok(Texture {
@@ -189,10 +192,12 @@ pub(super) fn load_texture(
         texels,
         wrap,
         nearest,
+        has_alpha,
     })
 }
 
-fn decode(bytes: &[u8]) -> Result<::image::RgbaImage, String> {
+/// The image as RGBA, and whether it had an alpha channel of its own.
+fn decode(bytes: &[u8]) -> Result<(::image::RgbaImage, bool), String> {
     let mut reader = ::image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| format!("cannot read image: {e}"))?;
@@ -206,5 +211,6 @@ fn decode(bytes: &[u8]) -> Result<::image::RgbaImage, String> {
     let image = reader
         .decode()
         .map_err(|e| format!("cannot decode image: {e}"))?;
-    Ok(image.to_rgba8())
+    let has_alpha = image.color().has_alpha();
+    Ok((image.to_rgba8(), has_alpha))
 }

@@ -241,14 +241,18 @@ pub fn load(path: &Path) -> Result<Model, ImportError> {
     })
 }
 
-/// [`load`] for a file that must hold a surface; `purpose` says what it is for.
+/// [`load`] for a file that must hold a surface; `purpose` completes "there is nothing ...",
+/// e.g. "to bake".
 pub fn load_surface(path: &Path, purpose: &str) -> Result<Model, ImportError> {
     let model = load(path)?;
     if model.mesh.triangles.is_empty() {
         return Err(ImportError::invalid(
             path,
             "",
-            format!("the default scene has no triangles (nothing to use as {purpose})"),
+            format!(
+                "the default scene holds no triangles (it is empty, or has only cameras, \
+                 lights, points or lines): there is nothing {purpose}"
+            ),
         ));
     }
     Ok(model)

@@ -56,6 +56,16 @@ pub(super) fn flatten(
 /// scenes) every node that is nobody's child.
 fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
     let root = &doc.root;
+    if let (Some(scene), true) = (root.scene, root.scenes.is_empty()) {
+        return Err(ImportError::invalid(
+            &doc.path,
+            "scene",
+            format!(
+                "scene {} does not exist (the file has no scenes array)",
+                scene.value()
+            ),
+        ));
+    }
     if root.scenes.is_empty() {
         let mut is_child = vec![false; root.nodes.len()];
         for node in &root.nodes {
@@ -72,7 +82,10 @@ fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
         return Err(ImportError::invalid(
             &doc.path,
             "scene",
-            format!("scene {scene} does not exist"),
+            format!(
+                "scene {scene} does not exist ({} scenes)",
+                root.scenes.len()
+            ),
         ));
     };
     Ok(scene.nodes.iter().map(|n| n.value()).collect())
@@ -483,6 +496,17 @@ fn convert_material(
                         * Mat3::from_cols(Vec3::new(c, -s, 0.0), Vec3::new(s, c, 0.0), Vec3::Z)
                         * Mat3::from_scale(Vec2::from(t.scale.0))
                 });
+            if let AlphaMode::Mask { cutoff } = alpha_mode
+                && !b.mesh.textures[index as usize].has_alpha
+                && base_color.w >= cutoff
+            {
+                doc.warn(format!(
+                    "{}: {here} ({:?}): alphaMode MASK, but its baseColorTexture has no alpha \
+                     channel, so the mask cuts nothing",
+                    path.display(),
+                    m.name.as_deref().unwrap_or_default()
+                ));
+            }
             (Some(index), transform)
         }
     };

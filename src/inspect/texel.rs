@@ -4,16 +4,18 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
+use super::printable;
 use crate::bake::sobel;
 use crate::formats::hex;
-use crate::volume::{BakeParameters, DensityModel, SourceFile, Texel};
+use crate::volume::{BakeParameters, DensityModel, MaterialPart, SourceFile, Texel};
 
 #[derive(Serialize, Debug)]
 pub struct Summary {
-    pub format: &'static str,
+    /// Format name and version, e.g. `texel 1.1`.
+    pub format: String,
     pub generator: String,
     pub file_bytes: u64,
-    /// Voxel payload before compression.
+    /// The payload before compression, as the file declares it.
     pub raw_bytes: u64,
     pub density_model: DensityModel,
     /// gamma: extinction (1/m) per unit density.
@@ -31,6 +33,8 @@ pub struct Summary {
     pub filled_without_normal: f64,
     pub triangles: u64,
     pub foliage_triangles: u64,
+    /// Where each material went, wood or foliage, and why (files before v1.1 do not say).
+    pub materials: Vec<MaterialPart>,
     /// Silhouette coverage along x, y, z: of the mesh (measured at bake) and as the texture's
     /// optical depth predicts it, 1 - mean exp(-tau) over level-0 columns.
     pub coverage_mesh: [f64; 3],
@@ -51,12 +55,20 @@ pub struct LevelSummary {
 pub struct ChannelStats {
     pub name: String,
     pub unit: String,
+    /// The cells the figures are over: `all` cells, or only those with density of the
+    /// channel's part (`wood` or `foliage`), where its albedo was measured rather than filled.
+    pub over: &'static str,
     pub min: f64,
     pub max: f64,
     pub mean: f64,
 }
 
-fn stats(name: &str, unit: &str, values: impl Iterator<Item = f64>) -> ChannelStats {
+fn stats(
+    name: &str,
+    unit: &str,
+    over: &'static str,
+    values: impl Iterator<Item = f64>,
+) -> ChannelStats {
     let (mut min, mut max, mut sum, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0usize);
     for v in values {
         min = min.min(v);
@@ -70,6 +82,7 @@ fn stats(name: &str, unit: &str, values: impl Iterator<Item = f64>) -> ChannelSt
     ChannelStats {
         name: name.into(),
         unit: unit.into(),
+        over,
         min,
         max,
         mean: sum / n.max(1) as f64,
@@ -94,7 +107,16 @@ pub fn column_depths(texel: &Texel, level: usize, axis: usize) -> Vec<f64> {
     depth
 }
 
-pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
+/// The file's facts the decoded texture does not carry.
+#[derive(Clone, Copy, Debug)]
+pub struct FileFacts {
+    pub bytes: u64,
+    pub minor: u16,
+    /// The payload's length once decompressed.
+    pub raw_bytes: u64,
+}
+
+pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
     let info = &texel.info;
     let l0 = &texel.levels[0];
     let (density_unit, gradient_unit) = match info.density_model {
@@ -107,6 +129,7 @@ pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
         channels.push(stats(
             &format!("density_{name}"),
             density_unit,
+            "all",
             l0.density[part].iter().map(|&d| d as f64),
         ));
     }
@@ -114,6 +137,7 @@ pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
     channels.push(stats(
         "extinction (total)",
         "1/m",
+        "all",
         (0..l0.cell_count()).map(|i| scale * (l0.density[0][i] + l0.density[1][i]) as f64),
     ));
     for part in 0..2 {
@@ -121,6 +145,7 @@ pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
         channels.push(stats(
             &format!("|gradient_{name}|"),
             gradient_unit,
+            "all",
             l0.gradient[part]
                 .iter()
                 .map(|g| (g[0] as f64).hypot(g[1] as f64).hypot(g[2] as f64)),
@@ -134,6 +159,7 @@ pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
             channels.push(stats(
                 &format!("albedo_{name}.{ch}"),
                 "linear",
+                name,
                 present.map(|i| l0.albedo[part][i][c] as f64),
             ));
         }
@@ -153,16 +179,11 @@ pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
         let d = column_depths(texel, 0, a);
         d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len() as f64
     });
-    let per_cell_bytes = 2 * 4 + 2 * 12 + 2 * 6;
     Summary {
-        format: "texel 1",
+        format: format!("texel 1.{}", file.minor),
         generator: info.generator.clone(),
-        file_bytes,
-        raw_bytes: texel
-            .levels
-            .iter()
-            .map(|l| (l.cell_count() * per_cell_bytes) as u64)
-            .sum(),
+        file_bytes: file.bytes,
+        raw_bytes: file.raw_bytes,
         density_model: info.density_model,
         extinction_scale: info.extinction_scale,
         model_min: info.model_min,
@@ -181,6 +202,7 @@ pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
         filled_without_normal: without_normal as f64 / filled.max(1) as f64,
         triangles: info.triangles,
         foliage_triangles: info.foliage_triangles,
+        materials: info.materials.clone(),
         coverage_mesh: info.mesh_coverage,
         coverage_texture,
         sources: info.sources.clone(),
@@ -192,7 +214,12 @@ pub fn summarize(texel: &Texel, file_bytes: u64) -> Summary {
 pub fn to_text(s: &Summary) -> String {
     let mut o = String::new();
     let l0 = &s.levels[0];
-    let _ = writeln!(o, "format        {} (written by {})", s.format, s.generator);
+    let _ = writeln!(
+        o,
+        "format        {} (written by {})",
+        s.format,
+        printable(&s.generator)
+    );
     let _ = writeln!(
         o,
         "size          {} bytes on disk, {} raw ({:.1}x compression)",
@@ -232,6 +259,22 @@ pub fn to_text(s: &Summary) -> String {
         "triangles     {} ({} foliage)",
         s.triangles, s.foliage_triangles
     );
+    if s.materials.is_empty() {
+        let _ = writeln!(o, "materials     not recorded (a file before texel 1.1)");
+    } else {
+        let _ = writeln!(o, "materials     part      triangles  alpha cut  why");
+        for m in &s.materials {
+            let _ = writeln!(
+                o,
+                "  {:<26} {:<8} {:>9}  {:>8.1}%  {}",
+                printable(&m.name),
+                if m.foliage { "foliage" } else { "wood" },
+                m.triangles,
+                100.0 * m.cut,
+                m.reason.describe()
+            );
+        }
+    }
     let _ = writeln!(
         o,
         "fill ratio    {:.3} of cells have extinction; {:.3} of those have no normal (zero gradient)",
@@ -247,12 +290,17 @@ pub fn to_text(s: &Summary) -> String {
     }
     let _ = writeln!(
         o,
-        "channels      (level 0)                     min          max         mean"
+        "channels      (level 0)                     min          max         mean  over cells"
     );
     for c in &s.channels {
+        let over = match c.over {
+            "all" => "all",
+            "wood" => "with wood",
+            _ => "with foliage",
+        };
         let _ = writeln!(
             o,
-            "  {:<26} {:>6}  {:>11.4} {:>12.4} {:>12.4}",
+            "  {:<26} {:>6}  {:>11.4} {:>12.4} {:>12.4}  {over}",
             c.name, c.unit, c.min, c.max, c.mean
         );
     }
@@ -260,9 +308,13 @@ pub fn to_text(s: &Summary) -> String {
     let gamma = p
         .requested_gamma
         .map_or("fitted".to_string(), |g| format!("{g}"));
+    let wood = p
+        .wood_pattern
+        .as_ref()
+        .map_or(String::new(), |w| format!(" --wood {w:?}"));
     let _ = writeln!(
         o,
-        "bake          --resolution {} --fine {} --foliage {:?} gamma {gamma}",
+        "bake          --resolution {} --fine {} --foliage {:?}{wood} gamma {gamma}",
         p.resolution, p.fine, p.foliage_pattern
     );
     let _ = writeln!(o, "inputs        sha256 {}", hex(&s.inputs_sha256));
@@ -270,7 +322,7 @@ pub fn to_text(s: &Summary) -> String {
         let _ = writeln!(
             o,
             "  {}  {} bytes  sha256 {}",
-            src.path,
+            printable(&src.path),
             src.bytes,
             hex(&src.sha256)
         );

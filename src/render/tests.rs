@@ -41,7 +41,9 @@ pub(crate) fn uniform_texel(
                 fine: 0,
                 foliage_pattern: String::new(),
                 requested_gamma: None,
+                wood_pattern: None,
             },
+            materials: vec![],
         },
         levels: mip_chain(l, 1.0),
     }

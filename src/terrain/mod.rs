@@ -33,7 +33,7 @@ pub enum TerrainError {
 
 impl Terrain {
     pub fn load(path: &Path) -> Result<Terrain, TerrainError> {
-        let model = import::load_surface(path, "a terrain")?;
+        let model = import::load_surface(path, "to place trees on")?;
         Ok(Terrain::from_model(model))
     }
 
