@@ -10,7 +10,7 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
            $(OUT)/trees/$(t)-projection-z.png $(OUT)/trees/$(t)-projection-y.png \
            $(OUT)/trees/$(t)-slice-y10.png)
 
-.PHONY: demo test bench accuracy report fixtures clean FORCE
+.PHONY: demo test bench accuracy report fixtures formats-check clean FORCE
 .DELETE_ON_ERROR:
 
 FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
@@ -36,6 +36,13 @@ report: $(TEXEL)
 # Regenerates the procedural fixtures and the golden .texel; tests check they match.
 fixtures:
 	$(CARGO) run --release --example make_fixtures -- fixtures
+
+# The reference reader (formats/reference/, written from the specs alone; needs Python's
+# zstandard module) against the golden files and the invalid corpus.
+formats-check:
+	python3 formats/reference/read_formats.py --check-golden \
+	    fixtures/formats/conifer-8.texel fixtures/formats/forest-12.instances
+	python3 formats/reference/read_formats.py --expect-invalid fixtures/formats/invalid/* >/dev/null
 
 clean:
 	rm -rf $(OUT)

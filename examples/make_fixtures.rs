@@ -16,5 +16,20 @@ fn main() -> anyhow::Result<()> {
     let bytes = texel_forest::procedural::golden_texel(&dir.join("trees/conifer.glb"))?;
     texel_forest::output::write_atomic(&golden, &bytes)?;
     println!("{} ({} bytes)", golden.display(), bytes.len());
+    let golden = dir.join("formats/forest-12.instances");
+    let instances = texel_forest::procedural::golden_instances()?;
+    texel_forest::output::write_atomic(&golden, &instances)?;
+    println!("{} ({} bytes)", golden.display(), instances.len());
+    // The invalid corpus is rewritten whole, so a file dropped from the generator goes too.
+    let invalid = dir.join("formats/invalid");
+    if invalid.exists() {
+        std::fs::remove_dir_all(&invalid)?;
+    }
+    std::fs::create_dir_all(&invalid)?;
+    let files = texel_forest::procedural::invalid::invalid_files(&instances);
+    for f in &files {
+        texel_forest::output::write_atomic(&invalid.join(&f.name), &f.bytes)?;
+    }
+    println!("{} ({} files)", invalid.display(), files.len());
     Ok(())
 }

@@ -404,33 +404,39 @@ impl SpeciesFile {
                     );
                 }
             }
-            validate_keys(
-                &s.seasons.foliage.iter().map(|k| k.day).collect::<Vec<_>>(),
-                &f("seasons.foliage"),
-            )?;
-            validate_keys(
-                &s.seasons
-                    .leaf_fraction
-                    .iter()
-                    .map(|k| k.day)
-                    .collect::<Vec<_>>(),
-                &f("seasons.leaf_fraction"),
-            )?;
-            for (k, key) in s.seasons.foliage.iter().enumerate() {
-                if key.albedo.iter().any(|c| !(0.0..=1.0).contains(c)) {
-                    return bad(
-                        f(&format!("seasons.foliage[{k}].albedo")),
-                        "components must be linear values in [0, 1]",
-                    );
-                }
+            s.seasons.validate(&f("seasons"))?;
+        }
+        Ok(())
+    }
+}
+
+impl Seasons {
+    /// Keyframe days within 1..=366 and increasing, albedos and leaf fractions within [0, 1];
+    /// `field` is the JSON path of the series, for the error.
+    pub fn validate(&self, field: &str) -> Result<(), (String, String)> {
+        let bad = |at: String, message: &str| Err((at, message.to_string()));
+        validate_keys(
+            &self.foliage.iter().map(|k| k.day).collect::<Vec<_>>(),
+            &format!("{field}.foliage"),
+        )?;
+        validate_keys(
+            &self.leaf_fraction.iter().map(|k| k.day).collect::<Vec<_>>(),
+            &format!("{field}.leaf_fraction"),
+        )?;
+        for (k, key) in self.foliage.iter().enumerate() {
+            if key.albedo.iter().any(|c| !(0.0..=1.0).contains(c)) {
+                return bad(
+                    format!("{field}.foliage[{k}].albedo"),
+                    "components must be linear values in [0, 1]",
+                );
             }
-            for (k, key) in s.seasons.leaf_fraction.iter().enumerate() {
-                if !(0.0..=1.0).contains(&key.value) {
-                    return bad(
-                        f(&format!("seasons.leaf_fraction[{k}].value")),
-                        "must be in [0, 1]",
-                    );
-                }
+        }
+        for (k, key) in self.leaf_fraction.iter().enumerate() {
+            if !(0.0..=1.0).contains(&key.value) {
+                return bad(
+                    format!("{field}.leaf_fraction[{k}].value"),
+                    "must be in [0, 1]",
+                );
             }
         }
         Ok(())

@@ -185,3 +185,78 @@ fn instances_truncations_are_refused() {
         assert!(instances::decode(&bytes[..n]).is_err(), "{n}");
     }
 }
+
+/// Golden file: `fixtures/formats/forest-12.instances`, written by hand in
+/// `procedural::golden_instances`; `formats/instances.md` pins its decoded values.
+#[test]
+fn golden_instances_decode_and_are_reproduced() {
+    let golden =
+        std::fs::read(common::fixture("formats/forest-12.instances")).expect("run `make fixtures`");
+    assert!(
+        texel_forest::procedural::golden_instances().unwrap() == golden,
+        "the format changed: regenerate with `make fixtures` if intended"
+    );
+    let f = instances::decode(&golden).unwrap();
+    assert_eq!(f.info.species.len(), 2);
+    assert_eq!(f.instances.len(), 12);
+    let o = f.info.origin;
+    let cm = |i: usize| {
+        let p = f.instances[i].position;
+        [0, 2, 1].map(|a| ((p[a] - o[a]) / 0.01).round() as i64)
+    };
+    // The values formats/instances.md lists.
+    assert_eq!(cm(1), [350, 120, 15]);
+    assert_eq!(cm(7), [-1200, -600, -400]);
+    assert_eq!(cm(9), [2_100_000_000, 5, 0]);
+    assert_eq!(cm(10), [-2_100_000_000, 5, 0]);
+    let t = &f.instances[3];
+    assert_eq!(
+        (
+            t.species,
+            instances::encode_rotation(t.rotation),
+            instances::encode_scale(t.scale),
+            t.variation
+        ),
+        (1, 65535, instances::encode_scale(0.5), 7)
+    );
+    assert_eq!(instances::encode_scale(0.5), 30720);
+}
+
+/// `fixtures/formats/invalid/`: one file for every refusal the specs list. Each is what the
+/// generator makes, and each is refused with its own message (not merely refused).
+#[test]
+fn every_invalid_file_is_refused_with_its_message() {
+    let dir = common::fixture("formats/invalid");
+    let golden = std::fs::read(common::fixture("formats/forest-12.instances")).unwrap();
+    let files = texel_forest::procedural::invalid::invalid_files(&golden);
+    let mut committed: Vec<String> = std::fs::read_dir(&dir)
+        .expect("run `make fixtures`")
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    committed.sort();
+    let mut made: Vec<String> = files.iter().map(|f| f.name.clone()).collect();
+    made.sort();
+    assert_eq!(committed, made, "run `make fixtures`");
+    for f in &files {
+        let bytes = std::fs::read(dir.join(&f.name)).unwrap();
+        assert!(
+            bytes == f.bytes,
+            "{}: differs from the generator's; run `make fixtures`",
+            f.name
+        );
+        let e = if f.name.ends_with(".texel") {
+            texel::decode(&bytes).map(|_| ()).map_err(|e| e.to_string())
+        } else {
+            instances::decode(&bytes)
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        };
+        let e = e.err().unwrap_or_else(|| panic!("{}: accepted", f.name));
+        assert!(
+            e.contains(f.refusal),
+            "{}: {e:?} does not say {:?}",
+            f.name,
+            f.refusal
+        );
+    }
+}

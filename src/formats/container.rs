@@ -175,7 +175,8 @@ pub fn read(
     })
 }
 
-/// Steps 1 to 4 of reading (see `formats/container.md`): magic, version, lengths, checksum.
+/// Steps 1 to 5 of reading (see `formats/container.md`): magic, length, version, lengths,
+/// checksum.
 pub fn open<'a>(
     bytes: &'a [u8],
     magic: &[u8; 8],
@@ -264,7 +265,7 @@ impl Opened<'_> {
         self.raw_len
     }
 
-    /// Step 6: checks that the payload is exactly one zstd frame (no skippable frame, nothing
+    /// Step 7: checks that the payload is exactly one zstd frame (no skippable frame, nothing
     /// after it) that declares its content size as R, then decompresses it as a stream with a
     /// limit, never trusting the declared length for an allocation.
     pub fn payload(&self) -> Result<Vec<u8>, ContainerError> {

@@ -3,6 +3,7 @@
 use bincode::{Decode, Encode};
 
 use super::container::{self, ContainerError, header_config};
+use crate::limits::{LimitError, Limits};
 use crate::place::Instance;
 use crate::species::{Seasons, Traits};
 use crate::volume::SourceFile;
@@ -81,9 +82,9 @@ pub struct Forest {
 }
 
 #[derive(Encode, Decode)]
-struct Header {
-    info: ForestInfo,
-    count: u64,
+pub(crate) struct Header {
+    pub(crate) info: ForestInfo,
+    pub(crate) count: u64,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -92,6 +93,13 @@ pub enum InstancesError {
     Container(#[from] ContainerError),
     #[error("corrupt header: {0}")]
     Header(String),
+    #[error("corrupt payload: {0}")]
+    Payload(String),
+    #[error(transparent)]
+    Limit(#[from] LimitError),
+    /// What a writer refuses to write, because readers would refuse it.
+    #[error("cannot write this forest: {0}")]
+    Unwritable(String),
 }
 
 fn zigzag(d: i32) -> u32 {
@@ -135,30 +143,81 @@ pub fn decode_rotation(v: u16) -> f32 {
     (v as f64 / 65536.0 * std::f64::consts::TAU) as f32
 }
 
-/// Quantises a position component to centimetres from `origin`.
-fn quantise(v: f64, origin: f64) -> i32 {
-    ((v - origin) / QUANTUM)
-        .round()
-        .clamp(i32::MIN as f64, i32::MAX as f64) as i32
+/// Quantises a position component to centimetres from `origin`; `None` beyond what 32 bits
+/// of centimetres reach (21,474 km).
+fn quantise(v: f64, origin: f64) -> Option<i32> {
+    let q = ((v - origin) / QUANTUM).round();
+    (q.is_finite() && q >= i32::MIN as f64 && q <= i32::MAX as f64).then_some(q as i32)
 }
 
-pub fn encode(forest: &Forest) -> Result<Vec<u8>, ContainerError> {
-    let n = forest.instances.len();
+/// What a reader would refuse in a forest about to be written.
+fn check_writable(forest: &Forest) -> Result<(), InstancesError> {
+    let unwritable = |m: String| Err(InstancesError::Unwritable(m));
+    validate(&forest.info).or_else(|e| unwritable(e.to_string()))?;
+    if forest.instances.len() as u64 > MAX_COUNT {
+        return unwritable(format!(
+            "{} trees (a file holds at most {MAX_COUNT})",
+            forest.instances.len()
+        ));
+    }
+    let o = forest.info.origin;
+    for (i, p) in forest.instances.iter().enumerate() {
+        if p.species as usize >= forest.info.species.len() {
+            return unwritable(format!("tree {i} names species {}", p.species));
+        }
+        if (0..3).any(|a| quantise(p.position[a], o[a]).is_none()) {
+            return unwritable(format!(
+                "tree {i} at {:?} is more than 21,000 km from the origin {o:?}",
+                p.position
+            ));
+        }
+        if !(p.scale.is_finite() && p.scale > 0.0 && p.rotation.is_finite()) {
+            return unwritable(format!(
+                "tree {i} has scale {} and rotation {}",
+                p.scale, p.rotation
+            ));
+        }
+        let stored = decode_scale(encode_scale(p.scale));
+        if (stored / p.scale - 1.0).abs() > 1e-3 {
+            return unwritable(format!(
+                "tree {i} has scale {}, outside the stored range 2^-16 to 2^16; check the \
+                 species' height against its texel's model height",
+                p.scale
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Encodes a forest as `.instances` bytes (deterministic), refusing what a reader would refuse.
+pub fn encode(forest: &Forest) -> Result<Vec<u8>, InstancesError> {
+    check_writable(forest)?;
     let header = Header {
         info: forest.info.clone(),
-        count: n as u64,
+        count: forest.instances.len() as u64,
     };
     let header = bincode::encode_to_vec(&header, header_config())
         .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?;
+    Ok(container::write(
+        MAGIC,
+        MAJOR,
+        MINOR,
+        &header,
+        &payload(forest),
+    )?)
+}
+
+/// The seven columns of the payload.
+fn payload(forest: &Forest) -> Vec<u8> {
     let o = forest.info.origin;
-    let mut payload = Vec::with_capacity(n * RAW_BYTES_PER_INSTANCE);
+    let mut payload = Vec::with_capacity(forest.instances.len() * RAW_BYTES_PER_INSTANCE);
     for (axis, origin) in [(0, o[0]), (2, o[2]), (1, o[1])] {
         let mut previous = 0i32;
         let deltas: Vec<u32> = forest
             .instances
             .iter()
             .map(|p| {
-                let q = quantise(p.position[axis], origin);
+                let q = quantise(p.position[axis], origin).unwrap_or_default();
                 let d = zigzag(q.wrapping_sub(previous));
                 previous = q;
                 d
@@ -177,35 +236,62 @@ pub fn encode(forest: &Forest) -> Result<Vec<u8>, ContainerError> {
     push_planes(&mut payload, &column(&|p| encode_rotation(p.rotation)), 2);
     push_planes(&mut payload, &column(&|p| encode_scale(p.scale)), 2);
     push_planes(&mut payload, &column(&|p| p.variation), 2);
-    container::write(MAGIC, MAJOR, MINOR, &header, &payload)
+    payload
 }
 
+/// A file the writer would refuse: `forest`'s header and payload with `edit` applied, put in a
+/// container without any check. For the corpus of invalid files readers are tested against.
+pub(crate) fn forge(forest: &Forest, edit: impl FnOnce(&mut Header, &mut Vec<u8>)) -> Vec<u8> {
+    let mut header = Header {
+        info: forest.info.clone(),
+        count: forest.instances.len() as u64,
+    };
+    let mut payload = payload(forest);
+    edit(&mut header, &mut payload);
+    bincode::encode_to_vec(&header, header_config())
+        .ok()
+        .and_then(|h| container::write(MAGIC, MAJOR, MINOR, &h, &payload).ok())
+        .unwrap_or_default()
+}
+
+/// Decodes `.instances` bytes within the default [`Limits`].
 pub fn decode(bytes: &[u8]) -> Result<Forest, InstancesError> {
-    let c = container::read(bytes, MAGIC, "instances", MAJOR)?;
+    decode_with(bytes, &Limits::default())
+}
+
+/// Decodes `.instances` bytes: container, then the header (validated, the tree count checked
+/// against the payload's declared length and `limits`), and only then the payload.
+pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Forest, InstancesError> {
+    let opened = container::open(bytes, MAGIC, "instances", MAJOR)?;
     let bad = |m: String| InstancesError::Header(m);
     let (header, used): (Header, usize) =
-        bincode::decode_from_slice(&c.header, header_config()).map_err(|e| bad(e.to_string()))?;
-    if used != c.header.len() {
+        bincode::decode_from_slice(opened.header, header_config())
+            .map_err(|e| bad(e.to_string()))?;
+    // Header fields a newer minor version appended are skipped (formats/container.md).
+    let is_newer = opened.minor > MINOR;
+    if used != opened.header.len() && !is_newer {
         return Err(bad(format!(
             "{} bytes after the header",
-            c.header.len() - used
+            opened.header.len() - used
         )));
     }
     let info = header.info;
     validate(&info)?;
-    if header.count > MAX_COUNT || header.count as usize * RAW_BYTES_PER_INSTANCE != c.payload.len()
+    if header.count > MAX_COUNT || header.count * RAW_BYTES_PER_INSTANCE as u64 != opened.raw_len()
     {
         return Err(bad(format!(
-            "{} instances need {} payload bytes, the file has {}",
+            "{} trees need {} payload bytes, the container says {}",
             header.count,
             header.count.saturating_mul(RAW_BYTES_PER_INSTANCE as u64),
-            c.payload.len()
+            opened.raw_len()
         )));
     }
+    limits.check_trees(header.count, "the forest's tree count")?;
+    let payload = opened.payload()?;
     let n = header.count as usize;
     let mut at = 0;
     let mut take = |len: usize| {
-        let s = &c.payload[at..at + len];
+        let s = &payload[at..at + len];
         at += len;
         s
     };
@@ -221,9 +307,13 @@ pub fn decode(bytes: &[u8]) -> Result<Forest, InstancesError> {
             .collect();
     }
     let species = take(n).to_vec();
-    if let Some(&s) = species.iter().find(|&&s| s as usize >= info.species.len()) {
-        return Err(bad(format!(
-            "an instance names species {s} of {}",
+    if let Some(i) = species
+        .iter()
+        .position(|&s| s as usize >= info.species.len())
+    {
+        return Err(InstancesError::Payload(format!(
+            "tree {i} names species {} of {}",
+            species[i],
             info.species.len()
         )));
     }
@@ -252,19 +342,46 @@ fn validate(info: &ForestInfo) -> Result<(), InstancesError> {
     {
         return bad("bounds are not finite".into());
     }
+    let r = info.region;
+    if !(r[0] < r[2] && r[1] < r[3]) {
+        return bad(format!("region {r:?} is empty (needs x0 < x1 and z0 < z1)"));
+    }
+    if !(info.raster_cell.is_finite() && info.raster_cell > 0.0) {
+        return bad(format!(
+            "raster cell {} is not a positive finite number",
+            info.raster_cell
+        ));
+    }
     if info.species.is_empty() || info.species.len() > 255 {
         return bad(format!("{} species (1 to 255 allowed)", info.species.len()));
     }
     for s in &info.species {
-        if !(s.model_height > 0.0
-            && s.spacing > 0.0
-            && s.height_min > 0.0
-            && s.height_min <= s.height_max)
-        {
-            return bad(format!("species {:?} has a non-positive size", s.name));
+        let sizes = [
+            ("model_height", s.model_height),
+            ("spacing", s.spacing),
+            ("height_min", s.height_min),
+            ("height_max", s.height_max),
+        ];
+        if let Some((field, v)) = sizes.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+            return bad(format!(
+                "species {:?}: {field} {v} is not a positive finite number",
+                s.name
+            ));
         }
-        if s.seasons.foliage.is_empty() || s.seasons.leaf_fraction.is_empty() {
-            return bad(format!("species {:?} has an empty seasonal series", s.name));
+        if s.height_min > s.height_max {
+            return bad(format!(
+                "species {:?}: height_min {} exceeds height_max {}",
+                s.name, s.height_min, s.height_max
+            ));
+        }
+        if s.leafless_texel.is_some() != s.leafless_sha256.is_some() {
+            return bad(format!(
+                "species {:?}: leafless_texel and leafless_sha256 must be both present or both absent",
+                s.name
+            ));
+        }
+        if let Err((field, message)) = s.seasons.validate("seasons") {
+            return bad(format!("species {:?}: {field}: {message}", s.name));
         }
     }
     if info.terrain.is_empty() {
@@ -382,7 +499,9 @@ pub(crate) mod tests {
         }
         let mut wrong = f.clone();
         wrong.instances[3].species = 9;
-        let e = decode(&encode(&wrong).unwrap()).unwrap_err().to_string();
-        assert!(e.contains("species 9"), "{e}");
+        let e = encode(&wrong).unwrap_err().to_string();
+        assert!(e.contains("cannot write") && e.contains("species 9"), "{e}");
+        let e = decode(&forge(&wrong, |_, _| {})).unwrap_err().to_string();
+        assert!(e.contains("tree 3 names species 9"), "{e}");
     }
 }

@@ -41,65 +41,65 @@ impl Encoding {
 }
 
 #[derive(Clone, Debug, PartialEq, Eq, Encode, Decode)]
-struct ChannelHeader {
-    name: String,
-    components: u8,
-    encoding: Encoding,
-    unit: String,
+pub(crate) struct ChannelHeader {
+    pub(crate) name: String,
+    pub(crate) components: u8,
+    pub(crate) encoding: Encoding,
+    pub(crate) unit: String,
 }
 
 #[derive(Clone, Debug, PartialEq, Encode, Decode)]
-struct LevelHeader {
-    dims: [u32; 3],
-    cell: f64,
+pub(crate) struct LevelHeader {
+    pub(crate) dims: [u32; 3],
+    pub(crate) cell: f64,
 }
 
 /// `Parameters` as v1.0 encodes them.
 #[derive(Clone, Debug, PartialEq, Encode, Decode)]
-struct Parameters {
-    resolution: u32,
-    fine: u32,
-    foliage_pattern: String,
-    requested_gamma: Option<f64>,
+pub(crate) struct Parameters {
+    pub(crate) resolution: u32,
+    pub(crate) fine: u32,
+    pub(crate) foliage_pattern: String,
+    pub(crate) requested_gamma: Option<f64>,
 }
 
 /// The v1.0 header exactly as it is encoded; field order is the byte order.
 #[derive(Clone, Debug, PartialEq, Encode, Decode)]
-struct Header {
-    generator: String,
-    model_min: [f64; 3],
-    model_max: [f64; 3],
-    origin: [f64; 3],
-    density_model: DensityModel,
-    extinction_scale: f64,
-    triangles: u64,
-    foliage_triangles: u64,
-    mesh_coverage: [f64; 3],
-    sources: Vec<SourceFile>,
-    inputs_sha256: [u8; 32],
-    parameters: Parameters,
-    levels: Vec<LevelHeader>,
-    channels: Vec<ChannelHeader>,
+pub(crate) struct Header {
+    pub(crate) generator: String,
+    pub(crate) model_min: [f64; 3],
+    pub(crate) model_max: [f64; 3],
+    pub(crate) origin: [f64; 3],
+    pub(crate) density_model: DensityModel,
+    pub(crate) extinction_scale: f64,
+    pub(crate) triangles: u64,
+    pub(crate) foliage_triangles: u64,
+    pub(crate) mesh_coverage: [f64; 3],
+    pub(crate) sources: Vec<SourceFile>,
+    pub(crate) inputs_sha256: [u8; 32],
+    pub(crate) parameters: Parameters,
+    pub(crate) levels: Vec<LevelHeader>,
+    pub(crate) channels: Vec<ChannelHeader>,
 }
 
 /// What minor version 1 appends to the header.
 #[derive(Clone, Debug, PartialEq, Encode, Decode, Default)]
-struct HeaderV1_1 {
-    wood_pattern: Option<String>,
-    materials: Vec<MaterialRecord>,
+pub(crate) struct HeaderV1_1 {
+    pub(crate) wood_pattern: Option<String>,
+    pub(crate) materials: Vec<MaterialRecord>,
 }
 
 #[derive(Clone, Debug, PartialEq, Encode, Decode)]
-struct MaterialRecord {
-    name: String,
-    reason: Reason,
-    cut: f32,
-    triangles: u64,
+pub(crate) struct MaterialRecord {
+    pub(crate) name: String,
+    pub(crate) reason: Reason,
+    pub(crate) cut: f32,
+    pub(crate) triangles: u64,
 }
 
 /// `PartReason` as encoded: the variant index is the byte value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Encode, Decode)]
-enum Reason {
+pub(crate) enum Reason {
     WoodPattern,
     FoliagePattern,
     AlphaCuts,
@@ -177,6 +177,23 @@ fn unorm16(v: f32) -> [u8; 2] {
 /// Encodes a texture as `.texel` bytes (deterministic: same texture, same bytes). Refuses what
 /// a reader would refuse: the header's rules and non-finite or negative values.
 pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
+    let unwritable = |e: TexelError| TexelError::Unwritable(e.to_string());
+    let parts = parts(texel);
+    validate(&parts.header, &parts.extension).map_err(unwritable)?;
+    for level in &texel.levels {
+        check_values(level).map_err(unwritable)?;
+    }
+    Ok(assemble(&parts)?)
+}
+
+/// A file's three parts before they are put in the container.
+pub(crate) struct Parts {
+    pub(crate) header: Header,
+    pub(crate) extension: HeaderV1_1,
+    pub(crate) payload: Vec<u8>,
+}
+
+fn parts(texel: &Texel) -> Parts {
     let info = &texel.info;
     let header = Header {
         generator: info.generator.clone(),
@@ -219,17 +236,6 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
             })
             .collect(),
     };
-    let unwritable = |e: TexelError| TexelError::Unwritable(e.to_string());
-    validate(&header, &extension).map_err(unwritable)?;
-    for level in &texel.levels {
-        check_values(level).map_err(unwritable)?;
-    }
-    let mut header_bytes = bincode::encode_to_vec(&header, header_config())
-        .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?;
-    header_bytes.extend(
-        bincode::encode_to_vec(&extension, header_config())
-            .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?,
-    );
     let mut payload = Vec::new();
     for level in &texel.levels {
         for part in 0..2 {
@@ -252,13 +258,27 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
             );
         }
     }
-    Ok(container::write(
-        MAGIC,
-        MAJOR,
-        MINOR,
-        &header_bytes,
-        &payload,
-    )?)
+    Parts {
+        header,
+        extension,
+        payload,
+    }
+}
+
+fn assemble(parts: &Parts) -> Result<Vec<u8>, ContainerError> {
+    let too_large =
+        |e: bincode::error::EncodeError| ContainerError::TooLarge(format!("header: {e}"));
+    let mut header = bincode::encode_to_vec(&parts.header, header_config()).map_err(too_large)?;
+    header.extend(bincode::encode_to_vec(&parts.extension, header_config()).map_err(too_large)?);
+    container::write(MAGIC, MAJOR, MINOR, &header, &parts.payload)
+}
+
+/// A file the writer would refuse: `texel`'s parts with `edit` applied, put in a container
+/// without any check. For the corpus of invalid files readers are tested against.
+pub(crate) fn forge(texel: &Texel, edit: impl FnOnce(&mut Parts)) -> Vec<u8> {
+    let mut p = parts(texel);
+    edit(&mut p);
+    assemble(&p).unwrap_or_default()
 }
 
 /// Decodes the header of a file of minor version `minor`: the v1.0 fields, then those of
@@ -468,6 +488,34 @@ fn validate(h: &Header, extension: &HeaderV1_1) -> Result<(), TexelError> {
             h.levels.len()
         ));
     }
+    let first = &h.levels[0];
+    if first.dims.iter().any(|&d| d == 0 || d > MAX_SIDE) {
+        return bad(format!(
+            "level 0 has {:?} cells (1 to {MAX_SIDE} per side)",
+            first.dims
+        ));
+    }
+    if !(first.cell.is_finite() && first.cell > 0.0) {
+        return bad(format!("cell size {} is not a positive number", first.cell));
+    }
+    for (i, pair) in h.levels.windows(2).enumerate() {
+        let want = pair[0].dims.map(|d| d.div_ceil(2));
+        if pair[0].dims == [1, 1, 1] {
+            return bad(format!("level {} follows a single-cell level", i + 1));
+        }
+        if pair[1].dims != want || pair[1].cell != pair[0].cell * 2.0 || !pair[1].cell.is_finite() {
+            return bad(format!(
+                "level {} is not half of level {i} (cells {:?} of {} m, expected {want:?} of {} m)",
+                i + 1,
+                pair[1].dims,
+                pair[1].cell,
+                pair[0].cell * 2.0
+            ));
+        }
+    }
+    if h.levels.last().is_some_and(|l| l.dims != [1, 1, 1]) {
+        return bad("the mip chain does not end in a single cell".into());
+    }
     if h.channels.len() > MAX_CHANNELS {
         return bad(format!(
             "{} channels (at most {MAX_CHANNELS})",
@@ -488,34 +536,6 @@ fn validate(h: &Header, extension: &HeaderV1_1) -> Result<(), TexelError> {
         if h.channels[..i].iter().any(|c| c.name == ch.name) {
             return bad(format!("channel {} appears twice", ch.name));
         }
-    }
-    let first = &h.levels[0];
-    if first.dims.iter().any(|&d| d == 0 || d > MAX_SIDE) {
-        return bad(format!(
-            "level 0 has {:?} cells (1 to {MAX_SIDE} per side)",
-            first.dims
-        ));
-    }
-    if !(first.cell.is_finite() && first.cell > 0.0) {
-        return bad(format!("cell size {} is not a positive number", first.cell));
-    }
-    for (i, pair) in h.levels.windows(2).enumerate() {
-        let want = pair[0].dims.map(|d| d.div_ceil(2));
-        if pair[0].dims == [1, 1, 1] {
-            return bad(format!("level {} follows a single-cell level", i + 1));
-        }
-        if pair[1].dims != want || pair[1].cell != pair[0].cell * 2.0 {
-            return bad(format!(
-                "level {} is not half of level {i} (cells {:?} of {} m, expected {want:?} of {} m)",
-                i + 1,
-                pair[1].dims,
-                pair[1].cell,
-                pair[0].cell * 2.0
-            ));
-        }
-    }
-    if h.levels.last().is_some_and(|l| l.dims != [1, 1, 1]) {
-        return bad("the mip chain does not end in a single cell".into());
     }
     if h.foliage_triangles > h.triangles {
         return bad(format!(

@@ -2,6 +2,7 @@
 //! `make fixtures` writes under `fixtures/`; a test checks the committed files still match it.
 
 pub mod builder;
+pub mod invalid;
 pub mod terrain;
 pub mod trees;
 
@@ -88,4 +89,146 @@ pub fn golden_texel(conifer_glb: &Path) -> anyhow::Result<Vec<u8>> {
     }];
     t.info.inputs_sha256 = Sha256::digest(sha256).into();
     Ok(texel::encode(&t)?)
+}
+
+/// The golden `.instances` (`fixtures/formats/forest-12.instances`): twelve trees of two
+/// species, written by hand so that every field and every corner of the encoding is pinned:
+/// a leafless texture on one species and not the other, rotations at both ends of the turn,
+/// scales either side of 1, variation at its extremes, deltas of both signs, and two trees
+/// 42,000 km apart whose delta wraps modulo 2^32.
+pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
+    use crate::formats::instances::{self, ForestInfo, SpeciesRecord, decode_rotation};
+    use crate::place::Instance;
+    use crate::species::{
+        AutumnColour, ColourKey, Form, FractionKey, LeafHabit, LeafOut, Light, Seasons, Traits,
+    };
+    let source = |path: &str, fill: u8, bytes: u64| SourceFile {
+        path: path.into(),
+        sha256: [fill; 32],
+        bytes,
+    };
+    let beech = SpeciesRecord {
+        name: "beech".into(),
+        texel: "trees/broadleaf.texel".into(),
+        texel_sha256: [0xb1; 32],
+        leafless_texel: Some("trees/bare.texel".into()),
+        leafless_sha256: Some([0xb2; 32]),
+        model_height: 12.5,
+        spacing: 4.0,
+        height_min: 10.0,
+        height_max: 20.0,
+        traits: Traits {
+            form: Form::Broadleaf,
+            light: Light::ShadeTolerant,
+            leaf_habit: LeafHabit::Deciduous,
+            leaf_out: LeafOut::Successive,
+            autumn_colour: AutumnColour::Yellow,
+        },
+        seasons: Seasons {
+            foliage: vec![
+                ColourKey {
+                    day: 120.0,
+                    albedo: [0.05, 0.12, 0.03],
+                },
+                ColourKey {
+                    day: 300.0,
+                    albedo: [0.25, 0.12, 0.03],
+                },
+            ],
+            leaf_fraction: vec![
+                FractionKey {
+                    day: 100.0,
+                    value: 0.0,
+                },
+                FractionKey {
+                    day: 130.0,
+                    value: 1.0,
+                },
+                FractionKey {
+                    day: 310.0,
+                    value: 1.0,
+                },
+                FractionKey {
+                    day: 330.0,
+                    value: 0.0,
+                },
+            ],
+        },
+    };
+    let pine = SpeciesRecord {
+        name: "red pine".into(),
+        texel: "trees/conifer.texel".into(),
+        texel_sha256: [0xc1; 32],
+        leafless_texel: None,
+        leafless_sha256: None,
+        model_height: 14.2,
+        spacing: 3.0,
+        height_min: 8.0,
+        height_max: 16.0,
+        traits: Traits {
+            form: Form::Conifer,
+            light: Light::SunLoving,
+            leaf_habit: LeafHabit::Evergreen,
+            leaf_out: LeafOut::Simultaneous,
+            autumn_colour: AutumnColour::None,
+        },
+        seasons: Seasons {
+            foliage: vec![ColourKey {
+                day: 1.0,
+                albedo: [0.04, 0.08, 0.03],
+            }],
+            leaf_fraction: vec![FractionKey {
+                day: 1.0,
+                value: 1.0,
+            }],
+        },
+    };
+    let origin = [-1000.0, 120.0, -2000.0];
+    // (x, z, y) in centimetres from the origin, species, rotation code, scale, variation.
+    let trees: [(i64, i64, i64, u8, u16, f32, u16); 12] = [
+        (0, 0, 0, 0, 0, 1.0, 0),
+        (350, 120, 15, 1, 16384, 0.8, 1),
+        (700, 80, 31, 0, 32768, 1.25, 65535),
+        (1050, 400, -20, 1, 65535, 0.5, 7),
+        (900, 1500, 250, 0, 1, 1.6, 1234),
+        (200, 1400, 260, 1, 49152, 0.7, 40000),
+        (-300, 900, 100, 0, 8192, 1.0, 2),
+        (-1200, -600, -400, 1, 24576, 1.1, 3),
+        (123_456, 654_321, 9_999, 0, 40960, 0.9, 4),
+        (2_100_000_000, 5, 0, 1, 100, 1.0, 5),
+        (-2_100_000_000, 5, 0, 0, 200, 1.0, 6),
+        (1, 2, 3, 1, 300, 1.5, 8),
+    ];
+    let instances: Vec<Instance> = trees
+        .iter()
+        .map(|&(x, z, y, species, rotation, scale, variation)| Instance {
+            species,
+            position: [
+                origin[0] + x as f64 * 0.01,
+                origin[1] + y as f64 * 0.01,
+                origin[2] + z as f64 * 0.01,
+            ],
+            rotation: decode_rotation(rotation),
+            scale: instances::decode_scale(instances::encode_scale(scale)),
+            variation,
+        })
+        .collect();
+    let info = ForestInfo {
+        generator: "texel-forest golden file".into(),
+        terrain: vec![
+            source("terrain/mountain.gltf", 0x71, 4096),
+            source("terrain/mountain.bin", 0x72, 1_048_576),
+        ],
+        species_file: source("species/forest.json", 0x5f, 4017),
+        seed: 42,
+        region: [-1000.0, -2000.0, 1000.0, 0.0],
+        raster_cell: 7.8125,
+        max_count: u64::MAX,
+        truncated: false,
+        terrain_min: [-1000.0, 100.0, -2000.0],
+        terrain_max: [1000.0, 480.5, 0.0],
+        origin,
+        species: vec![beech, pine],
+    };
+    Ok(instances::encode(&instances::Forest { info, instances })?)
 }

@@ -133,7 +133,10 @@ fn slope_aspect(f: &Heightfield) -> (Vec<f32>, Vec<f32>) {
 /// Height minus the mean height of the cells whose centres lie within `radius` (a disc),
 /// computed with per-row prefix sums.
 fn topographic_position(f: &Heightfield, radius: f64) -> Vec<f32> {
-    let r = (radius / f.cell).max(1.0);
+    // A disc wider than the raster's diagonal covers all of it: no need to look further (and
+    // a radius of 1e308 metres must not loop over rows that do not exist).
+    let diagonal = (f.nx as f64).hypot(f.nz as f64) + 1.0;
+    let r = (radius / f.cell).clamp(1.0, diagonal);
     let reach = r.floor() as isize;
     // Prefix sums of height and of valid-cell counts along each row.
     let mut sum = vec![0.0f64; (f.nx + 1) * f.nz];
@@ -154,11 +157,9 @@ fn topographic_position(f: &Heightfield, radius: f64) -> Vec<f32> {
                 continue;
             }
             let (mut s, mut c) = (0.0, 0u32);
-            for dj in -reach..=reach {
+            let rows = (-reach).max(-(j as isize))..=reach.min((f.nz - 1 - j) as isize);
+            for dj in rows {
                 let row = j as isize + dj;
-                if row < 0 || row >= f.nz as isize {
-                    continue;
-                }
                 let half = ((r * r - (dj * dj) as f64).max(0.0)).sqrt().floor() as isize;
                 let a = (i as isize - half).max(0) as usize;
                 let b = ((i as isize + half + 1) as usize).min(f.nx);

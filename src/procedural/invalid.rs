@@ -1,0 +1,457 @@
+//! The corpus of invalid files (`fixtures/formats/invalid/`): one file for every refusal the
+//! specs in `formats/` list, each made from a valid file with exactly that defect. Tests assert
+//! that our readers refuse each with its message, and CI that a reader written from the specs
+//! alone refuses them too. Every damaged file ever met belongs here.
+
+use crate::bake::{mip_chain, sobel};
+use crate::formats::container::PREAMBLE;
+use crate::formats::{instances, texel};
+use crate::volume::{
+    BakeParameters, DensityModel, Level, MaterialPart, PartReason, Texel, TexelInfo,
+};
+
+/// An invalid file: its name under `fixtures/formats/invalid/`, its bytes, and a piece of the
+/// message `texel` refuses it with.
+pub struct InvalidFile {
+    pub name: String,
+    pub bytes: Vec<u8>,
+    pub refusal: &'static str,
+}
+
+/// A small valid texture: 3 x 2 x 2 cells and its mips, two materials.
+fn small_texel() -> Texel {
+    let dims = [3, 2, 2];
+    let mut level = Level::empty(dims, 0.5);
+    for i in 0..level.cell_count() {
+        level.density[0][i] = (i % 3) as f32 * 0.5;
+        level.density[1][i] = (i % 4) as f32 * 0.25;
+        level.albedo[0][i] = [0.3, 0.2, 0.1];
+        level.albedo[1][i] = [0.1, 0.4, 0.1];
+    }
+    for part in 0..2 {
+        level.gradient[part] = sobel::gradient(&level.density[part], dims, level.cell);
+    }
+    let material = |name: &str, foliage, reason, triangles| MaterialPart {
+        name: name.into(),
+        foliage,
+        reason,
+        cut: 0.0,
+        triangles,
+    };
+    Texel {
+        info: TexelInfo {
+            generator: "texel-forest invalid corpus".into(),
+            model_min: [0.0; 3],
+            model_max: [1.5, 1.0, 1.0],
+            origin: [0.0; 3],
+            density_model: DensityModel::Transmittance,
+            extinction_scale: 1.0,
+            triangles: 30,
+            foliage_triangles: 20,
+            mesh_coverage: [0.5; 3],
+            sources: vec![],
+            inputs_sha256: [0; 32],
+            parameters: BakeParameters {
+                resolution: 3,
+                fine: 12,
+                foliage_pattern: "leaf".into(),
+                requested_gamma: None,
+                wood_pattern: None,
+            },
+            materials: vec![
+                material("bark", false, PartReason::Solid, 10),
+                material("leaf", true, PartReason::FoliagePattern, 20),
+            ],
+        },
+        levels: mip_chain(level, 1.0),
+    }
+}
+
+/// `bytes` with the container's CRC made right again after an edit.
+fn recrc(mut bytes: Vec<u8>) -> Vec<u8> {
+    let body = bytes.len() - 4;
+    let crc = crc32fast::hash(&bytes[..body]);
+    bytes[body..].copy_from_slice(&crc.to_le_bytes());
+    bytes
+}
+
+/// `valid` with its payload replaced by `frames` (and R by `raw_len`), CRC fixed.
+fn with_payload(valid: &[u8], frames: &[u8], raw_len: u64) -> Vec<u8> {
+    let h = u32::from_le_bytes(valid[12..16].try_into().unwrap_or_default()) as usize;
+    let mut out = valid[..PREAMBLE + h].to_vec();
+    out[16..24].copy_from_slice(&raw_len.to_le_bytes());
+    out[24..32].copy_from_slice(&(frames.len() as u64).to_le_bytes());
+    out.extend_from_slice(frames);
+    out.extend_from_slice(&[0; 4]);
+    recrc(out)
+}
+
+/// `valid` with four bytes appended to its header (and the minor version set to `minor`).
+fn grown_header(valid: &[u8], minor: u16) -> Vec<u8> {
+    let h = u32::from_le_bytes(valid[12..16].try_into().unwrap_or_default());
+    let end = PREAMBLE + h as usize;
+    let mut out = valid[..end].to_vec();
+    out[10..12].copy_from_slice(&minor.to_le_bytes());
+    out[12..16].copy_from_slice(&(h + 4).to_le_bytes());
+    out.extend_from_slice(b"more");
+    out.extend_from_slice(&valid[end..]);
+    recrc(out)
+}
+
+fn container_files(valid: &[u8], files: &mut Vec<InvalidFile>) {
+    let mut add = |name: &str, bytes: Vec<u8>, refusal| {
+        files.push(InvalidFile {
+            name: format!("container-{name}.texel"),
+            bytes,
+            refusal,
+        })
+    };
+    let patched = |at: usize, with: &[u8]| {
+        let mut b = valid.to_vec();
+        b[at..at + with.len()].copy_from_slice(with);
+        recrc(b)
+    };
+    let mut magic = valid.to_vec();
+    magic[0] = b'X';
+    add(
+        "magic",
+        magic,
+        "wrong magic bytes, the first byte was altered",
+    );
+    add("truncated", valid[..valid.len() - 9].to_vec(), "truncated");
+    let mut trailing = valid.to_vec();
+    trailing.extend_from_slice(b"xyz");
+    add("trailing-data", trailing, "trailing data");
+    add(
+        "major-2",
+        patched(8, &2u16.to_le_bytes()),
+        "is newer than this reader",
+    );
+    add(
+        "major-0",
+        patched(8, &0u16.to_le_bytes()),
+        "is older than this reader",
+    );
+    add(
+        "header-over-16-mib",
+        patched(12, &((16u32 << 20) + 1).to_le_bytes()),
+        "header length 16777217 exceeds",
+    );
+    add(
+        "payload-over-2-gib",
+        patched(16, &((2u64 << 30) + 1).to_le_bytes()),
+        "payload length 2147483649 exceeds",
+    );
+    let mut crc = valid.to_vec();
+    let last = crc.len() - 5;
+    crc[last] ^= 0x40;
+    add("checksum", crc, "checksum mismatch");
+
+    let raw = u64::from_le_bytes(valid[16..24].try_into().unwrap_or_default());
+    let payload = decompressed_payload(valid);
+    let frame = zstd::bulk::compress(&payload, 9).unwrap_or_default();
+    let half = raw as usize / 2;
+    let two = [
+        zstd::bulk::compress(&payload[..half], 9).unwrap_or_default(),
+        zstd::bulk::compress(&payload[half..], 9).unwrap_or_default(),
+    ]
+    .concat();
+    add(
+        "two-zstd-frames",
+        with_payload(valid, &two, raw),
+        "follow the payload's zstd frame",
+    );
+    let skippable = [&[0x50, 0x2A, 0x4D, 0x18][..], &4u32.to_le_bytes(), b"skip"].concat();
+    add(
+        "skippable-frame-first",
+        with_payload(valid, &[skippable.clone(), frame.clone()].concat(), raw),
+        "does not start with a zstd frame",
+    );
+    add(
+        "skippable-frame-after",
+        with_payload(valid, &[frame, skippable].concat(), raw),
+        "follow the payload's zstd frame",
+    );
+    let mut no_size = zstd::bulk::Compressor::new(9).unwrap_or_else(|_| unreachable!());
+    let _ = no_size.include_contentsize(false);
+    add(
+        "frame-without-content-size",
+        with_payload(valid, &no_size.compress(&payload).unwrap_or_default(), raw),
+        "does not declare its content size",
+    );
+    add(
+        "header-bytes-left-over",
+        grown_header(valid, texel::MINOR),
+        "4 bytes after the header",
+    );
+}
+
+fn decompressed_payload(valid: &[u8]) -> Vec<u8> {
+    let h = u32::from_le_bytes(valid[12..16].try_into().unwrap_or_default()) as usize;
+    zstd::decode_all(&valid[PREAMBLE + h..valid.len() - 4]).unwrap_or_default()
+}
+
+fn texel_files(files: &mut Vec<InvalidFile>) {
+    let base = small_texel();
+    let mut add = |name: &str, bytes: Vec<u8>, refusal| {
+        files.push(InvalidFile {
+            name: format!("texel-{name}.texel"),
+            bytes,
+            refusal,
+        })
+    };
+    use texel::{Encoding, Parts};
+    let forge = |edit: &dyn Fn(&mut Parts)| texel::forge(&base, edit);
+    let edited = |edit: &dyn Fn(&mut Texel)| {
+        let mut t = base.clone();
+        edit(&mut t);
+        texel::forge(&t, |_| {})
+    };
+    add(
+        "bounds-nan",
+        forge(&|p| p.header.model_max[1] = f64::NAN),
+        "bounds are not finite",
+    );
+    add(
+        "extinction-scale-zero",
+        forge(&|p| p.header.extinction_scale = 0.0),
+        "extinction scale 0 is not a positive number",
+    );
+    add("no-levels", forge(&|p| p.header.levels.clear()), "0 levels");
+    add(
+        "seventeen-levels",
+        forge(&|p| {
+            let last = p.header.levels[p.header.levels.len() - 1].clone();
+            while p.header.levels.len() < 17 {
+                p.header.levels.push(last.clone());
+            }
+        }),
+        "17 levels",
+    );
+    add(
+        "level-0-side-0",
+        forge(&|p| p.header.levels[0].dims[1] = 0),
+        "level 0 has [3, 0, 2] cells",
+    );
+    add(
+        "level-0-side-4097",
+        forge(&|p| p.header.levels[0].dims[0] = 4097),
+        "level 0 has [4097, 2, 2] cells",
+    );
+    add(
+        "cell-negative",
+        forge(&|p| p.header.levels[0].cell = -0.5),
+        "cell size -0.5 is not a positive number",
+    );
+    add(
+        "level-not-half",
+        forge(&|p| p.header.levels[1].dims = [2, 2, 1]),
+        "level 1 is not half of level 0",
+    );
+    add(
+        "cell-not-doubled",
+        forge(&|p| p.header.levels[1].cell = 1.0000001),
+        "level 1 is not half of level 0",
+    );
+    add(
+        "level-after-single-cell",
+        forge(&|p| {
+            let last = p.header.levels[p.header.levels.len() - 1].clone();
+            p.header.levels.push(texel::LevelHeader {
+                dims: [1, 1, 1],
+                cell: last.cell * 2.0,
+            });
+        }),
+        "follows a single-cell level",
+    );
+    add(
+        "chain-not-ending-in-one-cell",
+        forge(&|p| {
+            p.header.levels.pop();
+        }),
+        "does not end in a single cell",
+    );
+    add(
+        "sixty-five-channels",
+        forge(&|p| {
+            for k in 0..59 {
+                let mut ch = p.header.channels[0].clone();
+                ch.name = format!("extra_{k}");
+                p.header.channels.push(ch);
+            }
+        }),
+        "65 channels",
+    );
+    add(
+        "channel-without-components",
+        forge(&|p| p.header.channels[5].components = 0),
+        "channel albedo_foliage has 0 components",
+    );
+    add(
+        "duplicate-channel",
+        forge(&|p| {
+            let ch = p.header.channels[0].clone();
+            p.header.channels.push(ch);
+        }),
+        "channel density_wood appears twice",
+    );
+    add(
+        "foliage-over-triangles",
+        forge(&|p| p.header.foliage_triangles = 31),
+        "31 foliage triangles of 30",
+    );
+    add(
+        "materials-do-not-add-up",
+        forge(&|p| p.extension.materials[0].triangles = 11),
+        "the materials hold 31 triangles",
+    );
+    add(
+        "material-cut-out-of-range",
+        forge(&|p| p.extension.materials[1].cut = 1.5),
+        "cut share of 1.5",
+    );
+    add(
+        "payload-length",
+        forge(&|p| p.payload.extend_from_slice(&[0; 4])),
+        "payload bytes, the container says",
+    );
+    add(
+        "required-channel-missing",
+        forge(&|p| p.header.channels[0].name = "density_wooden".into()),
+        "required channel density_wood is missing",
+    );
+    add(
+        "channel-encoding",
+        forge(&|p| {
+            // Six more bytes for each of the 15 cells, so only the encoding is wrong.
+            p.header.channels[4].encoding = Encoding::F32;
+            p.payload.extend_from_slice(&[0; 90]);
+        }),
+        "channel albedo_wood has 3 x F32",
+    );
+    add(
+        "density-negative",
+        edited(&|t| t.levels[0].density[0][1] = -1.0),
+        "density -1 in a level",
+    );
+    add(
+        "density-nan",
+        edited(&|t| t.levels[1].density[1][0] = f32::NAN),
+        "density NaN in a level",
+    );
+    add(
+        "gradient-infinite",
+        edited(&|t| t.levels[0].gradient[1][2][1] = f32::INFINITY),
+        "a gradient in a level of [3, 2, 2] cells is not finite",
+    );
+}
+
+fn instances_files(valid: &[u8], files: &mut Vec<InvalidFile>) {
+    let Ok(base) = instances::decode(valid) else {
+        return;
+    };
+    let mut add = |name: &str, bytes: Vec<u8>, refusal| {
+        files.push(InvalidFile {
+            name: format!("instances-{name}.instances"),
+            bytes,
+            refusal,
+        })
+    };
+    let forge = |edit: &dyn Fn(&mut instances::Header, &mut Vec<u8>)| instances::forge(&base, edit);
+    add(
+        "region-empty",
+        forge(&|h, _| h.info.region[2] = h.info.region[0]),
+        "is empty (needs x0 < x1 and z0 < z1)",
+    );
+    add(
+        "origin-infinite",
+        forge(&|h, _| h.info.origin[2] = f64::INFINITY),
+        "bounds are not finite",
+    );
+    add(
+        "raster-cell-zero",
+        forge(&|h, _| h.info.raster_cell = 0.0),
+        "raster cell 0 is not a positive finite number",
+    );
+    add(
+        "no-species",
+        forge(&|h, _| h.info.species.clear()),
+        "0 species (1 to 255 allowed)",
+    );
+    add(
+        "model-height-zero",
+        forge(&|h, _| h.info.species[0].model_height = 0.0),
+        "model_height 0 is not a positive finite number",
+    );
+    add(
+        "spacing-nan",
+        forge(&|h, _| h.info.species[1].spacing = f64::NAN),
+        "spacing NaN is not a positive finite number",
+    );
+    add(
+        "height-min-negative",
+        forge(&|h, _| h.info.species[0].height_min = -1.0),
+        "height_min -1 is not a positive finite number",
+    );
+    add(
+        "height-max-infinite",
+        forge(&|h, _| h.info.species[0].height_max = f64::INFINITY),
+        "height_max inf is not a positive finite number",
+    );
+    add(
+        "heights-reversed",
+        forge(&|h, _| h.info.species[1].height_min = 30.0),
+        "height_min 30 exceeds height_max 16",
+    );
+    add(
+        "leafless-without-hash",
+        forge(&|h, _| h.info.species[0].leafless_sha256 = None),
+        "must be both present or both absent",
+    );
+    add(
+        "season-days-not-increasing",
+        forge(&|h, _| h.info.species[0].seasons.leaf_fraction[2].day = 120.0),
+        "days must increase",
+    );
+    add(
+        "season-albedo-above-one",
+        forge(&|h, _| h.info.species[1].seasons.foliage[0].albedo[1] = 2.0),
+        "components must be linear values in [0, 1]",
+    );
+    add(
+        "season-empty",
+        forge(&|h, _| h.info.species[1].seasons.foliage.clear()),
+        "is empty: give at least one keyframe",
+    );
+    add(
+        "no-terrain-source",
+        forge(&|h, _| h.info.terrain.clear()),
+        "no terrain source",
+    );
+    add(
+        "count-and-payload-disagree",
+        forge(&|h, _| h.count += 1),
+        "13 trees need 247 payload bytes, the container says 228",
+    );
+    add(
+        "species-out-of-range",
+        forge(&|_, payload| payload[12 * 12 + 4] = 2),
+        "tree 4 names species 2 of 2",
+    );
+    add(
+        "header-bytes-left-over",
+        grown_header(valid, instances::MINOR),
+        "4 bytes after the header",
+    );
+}
+
+/// Every invalid file, made from the golden `.instances` (`golden_instances`) and a small
+/// texture.
+pub fn invalid_files(golden_instances: &[u8]) -> Vec<InvalidFile> {
+    let mut files = Vec::new();
+    let valid = texel::encode(&small_texel()).unwrap_or_default();
+    container_files(&valid, &mut files);
+    texel_files(&mut files);
+    instances_files(golden_instances, &mut files);
+    files
+}
