@@ -26,7 +26,7 @@ fn main() {
     std::fs::write(&path, builder::glb(&files.doc, &files.bin)).expect("write");
 
     let start = Instant::now();
-    let terrain = Terrain::load(&path).expect("terrain");
+    let terrain = Terrain::load(&path, &Default::default()).expect("terrain");
     let load = start.elapsed().as_secs_f64();
     let heights = vec![14.0; species.species.len()];
     let settings = PlaceSettings {
@@ -74,7 +74,7 @@ fn main() {
             truncated: forest.truncated,
             terrain_min: terrain.lo.to_array(),
             terrain_max: terrain.hi.to_array(),
-            origin: [forest.region[0].floor(), 0.0, forest.region[1].floor()],
+            origin: texel_forest::place::quantisation_origin(&forest.instances),
             species: records,
         },
         instances: forest.instances,

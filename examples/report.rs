@@ -187,7 +187,7 @@ impl Report {
 }
 
 fn measure(out: &Path, reference: &Rgba) -> (f64, f64, f64) {
-    let image = Rgba::read(out).unwrap();
+    let image = Rgba::read(out, &Default::default()).unwrap();
     let c = compare(&image, reference, |_| true);
     (c.rgb.rmse, c.rgb.relative_mse, c.alpha.rmse)
 }
@@ -257,7 +257,11 @@ fn main() {
 
     let mut rows: Vec<Row> = Vec::new();
     for view in &VIEWS {
-        let reference = Rgba::read(&report.reference(&default_forest, view)).unwrap();
+        let reference = Rgba::read(
+            &report.reference(&default_forest, view),
+            &Default::default(),
+        )
+        .unwrap();
         eprintln!("report: the {} view...", view.name);
         let out = format!("{}.exr", view.name);
         let mut record = |method: &str, setting: &str, spp: u32, seconds: f64| {
@@ -345,7 +349,7 @@ fn main() {
             args.extend_from_slice(&extra);
             let out = format!("flicker-{k}.exr");
             report.render(&default_forest, far, &args, &out);
-            frames.push(Rgba::read(&report.work.join(&out)).unwrap());
+            frames.push(Rgba::read(&report.work.join(&out), &Default::default()).unwrap());
         }
         let n = frames.len() as f64;
         let pixels = frames[0].pixels.len();

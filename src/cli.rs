@@ -4,6 +4,212 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use texel_forest::limits::Limits;
+
+impl Cli {
+    pub fn limits(&self) -> Limits {
+        Limits {
+            cells: self.max_cells,
+            triangles: self.max_triangles,
+            trees: self.max_trees,
+            pixels: self.max_pixels,
+        }
+    }
+}
+
+// Value parsers: each flag's value is checked on its own here, before any work, so a bad value
+// is a usage error (status 2) naming the flag. What depends on several flags or on the inputs
+// is checked by the commands.
+
+fn number(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{s} is not a finite number"))
+    }
+}
+
+fn numbers<const N: usize>(s: &str, what: &str) -> Result<[f64; N], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != N {
+        return Err(format!("expected {what}"));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(parts) {
+        *o = number(p).map_err(|e| format!("{e}; expected {what}"))?;
+    }
+    Ok(out)
+}
+
+/// A number within `lo..=hi` (both inclusive where `closed`).
+fn within(s: &str, lo: f64, hi: f64, what: &str) -> Result<f64, String> {
+    let v = number(s)?;
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{v} is outside {lo}..{hi} ({what})"))
+    }
+}
+
+fn at_least_one(s: &str) -> Result<u64, String> {
+    match s.trim().parse::<u64>() {
+        Ok(v) if v >= 1 => Ok(v),
+        _ => Err(format!("{s:?} is not a whole number of at least 1")),
+    }
+}
+
+fn positive(s: &str) -> Result<f64, String> {
+    let v = number(s)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} is not positive"))
+    }
+}
+
+fn non_negative(s: &str) -> Result<f64, String> {
+    let v = number(s)?;
+    if v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} is negative"))
+    }
+}
+
+/// `X,Y,Z` in metres.
+pub fn point(s: &str) -> Result<[f64; 3], String> {
+    numbers::<3>(s, "three numbers X,Y,Z (metres)")
+}
+
+/// `X0,Z0,X1,Z1` in metres, a non-empty rectangle.
+pub fn region(s: &str) -> Result<[f64; 4], String> {
+    let r = numbers::<4>(s, "four numbers X0,Z0,X1,Z1 (metres)")?;
+    if r[0] < r[2] && r[1] < r[3] {
+        Ok(r)
+    } else {
+        Err("needs X0 < X1 and Z0 < Z1".into())
+    }
+}
+
+/// `X0,Y0,X1,Y1` in pixels, whole and non-negative, a non-empty rectangle.
+pub fn crop(s: &str) -> Result<[u32; 4], String> {
+    let what = "four whole pixel numbers X0,Y0,X1,Y1";
+    let parts: Vec<&str> = s.split(',').collect();
+    let values: Vec<u32> = parts
+        .iter()
+        .map(|p| p.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected {what}"))?;
+    match *values.as_slice() {
+        [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok([x0, y0, x1, y1]),
+        [_, _, _, _] => Err("needs X0 < X1 and Y0 < Y1".into()),
+        _ => Err(format!("expected {what}")),
+    }
+}
+
+/// `R,G,B` linear radiances, each within 0..=1e6.
+pub fn radiance(s: &str) -> Result<[f64; 3], String> {
+    let v = numbers::<3>(s, "three radiances R,G,B")?;
+    if v.iter().all(|c| (0.0..=1e6).contains(c)) {
+        Ok(v)
+    } else {
+        Err("each radiance must be within 0..1e6".into())
+    }
+}
+
+/// `AZ,EL` in degrees: a compass azimuth and an elevation within -90..90.
+pub fn sun_angles(s: &str) -> Result<[f64; 2], String> {
+    let [az, el] = numbers::<2>(s, "an azimuth and an elevation in degrees, AZ,EL")?;
+    if (-90.0..=90.0).contains(&el) {
+        Ok([az, el])
+    } else {
+        Err(format!("elevation {el} must be within -90..90 degrees"))
+    }
+}
+
+/// `AXIS=INDEX`, e.g. `y=16`.
+pub fn slice(s: &str) -> Result<(usize, usize), String> {
+    let bad = || "expected AXIS=INDEX such as y=16".to_string();
+    let (axis, index) = s.split_once('=').ok_or_else(bad)?;
+    let axis = match axis.trim().to_ascii_lowercase().as_str() {
+        "x" => 0,
+        "y" => 1,
+        "z" => 2,
+        _ => return Err(bad()),
+    };
+    Ok((axis, index.trim().parse().map_err(|_| bad())?))
+}
+
+fn day(s: &str) -> Result<f64, String> {
+    within(s, 1.0, 366.0, "a day of the year")
+}
+
+fn field_of_view(s: &str) -> Result<f64, String> {
+    let v = number(s)?;
+    if v > 0.0 && v < 180.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v} is not a field of view between 0 and 180 degrees"
+        ))
+    }
+}
+
+fn step(s: &str) -> Result<f32, String> {
+    let v = number(s)?;
+    if v > 0.0 && v <= 64.0 {
+        Ok(v as f32)
+    } else {
+        Err(format!(
+            "{v} is not a step of more than 0 and at most 64 cells"
+        ))
+    }
+}
+
+fn cutoff(s: &str) -> Result<f32, String> {
+    let v = number(s)?;
+    if (0.0..1.0).contains(&v) {
+        Ok(v as f32)
+    } else {
+        Err(format!("{v} is not a transmittance in [0, 1)"))
+    }
+}
+
+fn share(s: &str) -> Result<f32, String> {
+    within(s, 0.0, 1.0, "a share of a pixel").map(|v| v as f32)
+}
+
+fn lod_bias(s: &str) -> Result<f32, String> {
+    within(s, -16.0, 16.0, "mip levels").map(|v| v as f32)
+}
+
+fn shadow_lod(s: &str) -> Result<f32, String> {
+    within(s, 0.0, 16.0, "mip levels").map(|v| v as f32)
+}
+
+fn gamma(s: &str) -> Result<f64, String> {
+    let v = positive(s)?;
+    if v <= 1e6 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v} per metre is more than 1e6 (a mean free path under a micrometre)"
+        ))
+    }
+}
+
+fn cell_size(s: &str) -> Result<f64, String> {
+    let v = positive(s)?;
+    if v <= 1e6 {
+        Ok(v)
+    } else {
+        Err(format!("{v} metres is more than 1e6"))
+    }
+}
 
 #[derive(Parser, Debug)]
 #[command(
@@ -20,12 +226,26 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
         finds the images too different."
 )]
 pub struct Cli {
-    /// Worker threads (default: one per core). Results are identical for any number.
-    #[arg(long, global = true, value_name = "N")]
-    pub threads: Option<usize>,
+    /// Worker threads, 1 to 1024 (default: one per core). Results are identical for any
+    /// number.
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
+    pub threads: Option<u16>,
     /// Print nothing but errors and warnings.
     #[arg(long, short, global = true)]
     pub quiet: bool,
+    /// Most cells one texture may have, all levels (a damaged or hostile file can claim
+    /// billions).
+    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().cells, value_parser = at_least_one)]
+    pub max_cells: u64,
+    /// Most triangles one glTF scene may have once every node is instanced.
+    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().triangles, value_parser = at_least_one)]
+    pub max_triangles: u64,
+    /// Most trees one forest may have.
+    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().trees, value_parser = at_least_one)]
+    pub max_trees: u64,
+    /// Most pixels one image may have, read or written.
+    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().pixels, value_parser = at_least_one)]
+    pub max_pixels: u64,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -65,10 +285,11 @@ pub struct CompareArgs {
     #[arg(long, value_name = "DIFF.png")]
     pub heatmap: Option<PathBuf>,
     /// The error the heatmap's brightest colour stands for (default: the largest error).
-    #[arg(long, value_name = "ERROR", requires = "heatmap")]
-    pub scale: Option<f32>,
-    /// Exit with status 3 when the colour RMSE exceeds this (for build systems and tests).
-    #[arg(long, value_name = "RMSE")]
+    #[arg(long, value_name = "ERROR", requires = "heatmap", value_parser = non_negative)]
+    pub scale: Option<f64>,
+    /// Exit with status 3 when the colour RMSE exceeds this, or when either image has a pixel
+    /// that is not finite (for build systems and tests).
+    #[arg(long, value_name = "RMSE", value_parser = non_negative)]
     pub fail_above: Option<f64>,
 }
 
@@ -93,33 +314,37 @@ pub struct RenderArgs {
         long,
         value_name = "X,Y,Z",
         allow_hyphen_values = true,
-        requires = "target"
+        requires = "target",
+        value_parser = point
     )]
-    pub eye: Option<String>,
+    pub eye: Option<[f64; 3]>,
     /// Point looked at (world metres).
     #[arg(
         long,
         value_name = "X,Y,Z",
         allow_hyphen_values = true,
-        requires = "eye"
+        requires = "eye",
+        value_parser = point
     )]
-    pub target: Option<String>,
-    /// Vertical field of view, degrees.
-    #[arg(long, value_name = "DEGREES")]
+    pub target: Option<[f64; 3]>,
+    /// Vertical field of view, degrees (0 to 180).
+    #[arg(long, value_name = "DEGREES", value_parser = field_of_view)]
     pub fov: Option<f64>,
     /// Sun direction: compass azimuth (degrees clockwise from north, -Z) and elevation
     /// (default: a directional light of the glTF, else afternoon light from the south-west).
-    #[arg(long, value_name = "AZ,EL", allow_hyphen_values = true)]
-    pub sun: Option<String>,
+    #[arg(long, value_name = "AZ,EL", allow_hyphen_values = true, value_parser = sun_angles)]
+    pub sun: Option<[f64; 2]>,
     /// Day of the year for foliage colour and leaf fraction.
-    #[arg(long, default_value_t = 200.0, value_name = "1..366")]
+    #[arg(long, default_value_t = 200.0, value_name = "1..366", value_parser = day)]
     pub day: f64,
-    #[arg(long, default_value_t = 1280)]
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=65535))]
     pub width: u32,
-    #[arg(long, default_value_t = 720)]
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=65535))]
     pub height: u32,
     /// Samples per pixel.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=65536))]
     pub spp: u32,
     /// What draws the trees: their 3D textures, or the glTF models the textures were baked
     /// from (the conventional method; the ground truth at many samples per pixel).
@@ -127,8 +352,8 @@ pub struct RenderArgs {
     pub method: MethodArg,
     /// Render only this part of the frame (pixels, x1 and y1 exclusive); equals the same region
     /// of a full render bit for bit.
-    #[arg(long, value_name = "X0,Y0,X1,Y1")]
-    pub crop: Option<String>,
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = crop)]
+    pub crop: Option<[u32; 4]>,
     /// Also write an sRGB preview over a sky, for people.
     #[arg(long, value_name = "FRAME.png")]
     pub preview: Option<PathBuf>,
@@ -138,29 +363,31 @@ pub struct RenderArgs {
     /// Write colour and AOVs as half floats (depth stays float).
     #[arg(long)]
     pub half: bool,
-    /// Sky radiance (linear RGB) behind everything; without it the sky is transparent.
-    #[arg(long, value_name = "R,G,B")]
-    pub sky: Option<String>,
+    /// Sky radiance (linear RGB, each 0 to 1e6) behind everything; without it the sky is
+    /// transparent.
+    #[arg(long, value_name = "R,G,B", value_parser = radiance)]
+    pub sky: Option<[f64; 3]>,
     /// Segment length in texture cells (smaller: slower, less noise).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = step)]
     pub step: f32,
-    /// Transmittance at which a ray stops.
-    #[arg(long, default_value_t = 1e-3)]
+    /// Transmittance at which a ray stops, in [0, 1).
+    #[arg(long, default_value_t = 1e-3, value_parser = cutoff)]
     pub cutoff: f32,
     /// Share of a pixel below which a sample's shadow ray is cast only by Russian roulette
     /// (unbiased; larger: faster, noisier; 0 casts them all).
-    #[arg(long, default_value_t = 0.05, value_name = "SHARE")]
+    #[arg(long, default_value_t = 0.05, value_name = "SHARE", value_parser = share)]
     pub shadow_share: f32,
     /// Mip levels added to what the pixel footprint asks for (negative: sharper, slower).
     #[arg(
         long,
         default_value_t = 0.0,
         allow_hyphen_values = true,
-        value_name = "LEVELS"
+        value_name = "LEVELS",
+        value_parser = lod_bias
     )]
     pub lod_bias: f32,
     /// Further mip levels for shadow rays.
-    #[arg(long, default_value_t = 1.0, value_name = "LEVELS")]
+    #[arg(long, default_value_t = 1.0, value_name = "LEVELS", value_parser = shadow_lod)]
     pub shadow_lod: f32,
     /// Random seed of the sampling.
     #[arg(long, default_value_t = 0)]
@@ -215,7 +442,7 @@ pub struct BakeArgs {
     pub density: DensityArg,
     /// Extinction per unit occupancy, 1/m (occupancy model; default: fitted to the mesh's
     /// silhouettes).
-    #[arg(long, value_name = "PER_METRE")]
+    #[arg(long, value_name = "PER_METRE", value_parser = gamma)]
     pub gamma: Option<f64>,
     /// Case-insensitive regular expression on material names that marks foliage. Materials
     /// whose alpha mask cuts shapes out of them (leaf cards) are foliage too.
@@ -245,15 +472,19 @@ pub struct PlaceArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Stop after this many trees.
-    #[arg(long, value_name = "N")]
-    pub max_count: Option<usize>,
+    #[arg(long, value_name = "N", value_parser = at_least_one)]
+    pub max_count: Option<u64>,
     /// Place only within this rectangle of the ground plane (metres).
-    #[arg(long, value_name = "X0,Z0,X1,Z1", allow_hyphen_values = true)]
-    pub region: Option<String>,
+    #[arg(long, value_name = "X0,Z0,X1,Z1", allow_hyphen_values = true, value_parser = region)]
+    pub region: Option<[f64; 4]>,
     /// Cell of the height raster habitat is judged on (metres; default: the mesh's own
     /// resolution).
-    #[arg(long, value_name = "METRES")]
+    #[arg(long, value_name = "METRES", value_parser = cell_size)]
     pub cell: Option<f64>,
+    /// Nothing grows where the ground is below this height (metres): sea level on a
+    /// topo-bathymetric terrain (default: no limit).
+    #[arg(long, value_name = "METRES", allow_hyphen_values = true, value_parser = number)]
+    pub sea_level: Option<f64>,
     /// Also write a Make rule listing every file placement read.
     #[arg(long, value_name = "FILE")]
     pub depfile: Option<PathBuf>,
@@ -268,14 +499,14 @@ pub enum AxisArg {
 
 #[derive(Args, Debug)]
 pub struct InspectArgs {
-    /// The file to describe (.texel or .instances).
+    /// The file to describe: a .texel, a .instances, or a terrain (.glb or .gltf).
     pub file: PathBuf,
     /// Print the summary as JSON instead of text.
     #[arg(long)]
     pub json: bool,
     /// Picture of one slice of cells, e.g. `y=16` (needs -o).
-    #[arg(long, value_name = "AXIS=INDEX", conflicts_with = "projection")]
-    pub slice: Option<String>,
+    #[arg(long, value_name = "AXIS=INDEX", conflicts_with = "projection", value_parser = slice)]
+    pub slice: Option<(usize, usize)>,
     /// Picture of the texture seen along an axis: colour and opacity accumulated front to back
     /// through the optical depth (needs -o).
     #[arg(long, value_enum, value_name = "AXIS")]
@@ -284,9 +515,22 @@ pub struct InspectArgs {
     #[arg(long, default_value_t = 0)]
     pub level: usize,
     /// Top-down picture of a forest over its hillshaded terrain, trees coloured by species
-    /// (.instances; needs -o).
+    /// (.instances), or of a terrain's attributes (needs -o).
     #[arg(long)]
     pub map: bool,
+    /// Terrain: judge the ground with this species file's analysis settings, and say how much
+    /// of it suits each species.
+    #[arg(long, value_name = "FILE")]
+    pub species: Option<PathBuf>,
+    /// Terrain: the raster cell (metres; default: the mesh's own resolution).
+    #[arg(long, value_name = "METRES", value_parser = cell_size)]
+    pub cell: Option<f64>,
+    /// Terrain: only this rectangle of the ground plane (metres).
+    #[arg(long, value_name = "X0,Z0,X1,Z1", allow_hyphen_values = true, value_parser = region)]
+    pub region: Option<[f64; 4]>,
+    /// Terrain: ground below this height (metres) suits no species.
+    #[arg(long, value_name = "METRES", allow_hyphen_values = true, value_parser = number)]
+    pub sea_level: Option<f64>,
     /// Where to write the picture (PNG).
     #[arg(short, long, value_name = "FILE.png")]
     pub output: Option<PathBuf>,

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::color::ramp;
+use crate::limits::Limits;
 
 /// The channels compared, in order.
 pub const CHANNELS: [&str; 4] = ["R", "G", "B", "A"];
@@ -49,11 +50,23 @@ pub struct Rgba {
 }
 
 impl Rgba {
-    pub fn read(path: &Path) -> Result<Rgba, CompareError> {
+    /// Reads the first layer's R, G, B and A, refusing an image whose header claims more pixels
+    /// than `limits` allow before any pixel is read.
+    pub fn read(path: &Path, limits: &Limits) -> Result<Rgba, CompareError> {
         let read_error = |message: String| CompareError::Read {
             file: path.to_path_buf(),
             message,
         };
+        let meta = exr::meta::MetaData::read_from_file(path, false)
+            .map_err(|e| read_error(e.to_string()))?;
+        let pixels: u64 = meta
+            .headers
+            .iter()
+            .map(|h| h.layer_size.area() as u64)
+            .fold(0, u64::saturating_add);
+        limits
+            .check_pixels(pixels, "the pixels its header claims")
+            .map_err(|e| read_error(e.to_string()))?;
         let image = exr::prelude::read_all_flat_layers_from_file(path)
             .map_err(|e| read_error(e.to_string()))?;
         let layer = image

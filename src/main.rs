@@ -12,8 +12,10 @@ fn main() -> std::process::ExitCode {
         Err(e) => {
             // One line: the context chain joined, outermost first.
             let message: Vec<String> = e.chain().map(|c| c.to_string()).collect();
-            // Build logs and scripts expect one line per error.
-            eprintln!("texel: error: {}", message.join(": ").replace('\n', " "));
+            // Build logs and scripts expect one line per error; names from files must not
+            // reach the terminal as control sequences.
+            let line = message.join(": ").replace('\n', " ");
+            eprintln!("texel: error: {}", texel_forest::inspect::printable(&line));
             if e.is::<commands::TooDifferent>() {
                 std::process::ExitCode::from(commands::TOO_DIFFERENT)
             } else {

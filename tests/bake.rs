@@ -248,7 +248,7 @@ fn bad_gltf_inputs_give_one_clear_error_and_no_output() {
         b"glTF\x02\x00\x00\x00\xff\xff\xff\xff",
         &["GLB", "truncated"],
     );
-    assert_bake_fails("text.gltf", b"this is not json", &["not valid glTF"]);
+    assert_bake_fails("text.gltf", b"this is not json", &["not a glTF file"]);
 }
 
 #[test]

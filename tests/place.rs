@@ -77,7 +77,7 @@ fn place_writes_a_forest_that_keeps_its_spacing_and_inspect_reads_it() {
     // Trees stand on the ground: the terrain's exact height under them, to the centimetre
     // positions are stored to (on slopes up to 60 degrees, half a centimetre across is up to
     // 1.2 cm up).
-    let terrain = Terrain::load(&mountain()).unwrap();
+    let terrain = Terrain::load(&mountain(), &Default::default()).unwrap();
     for p in f.instances.iter().step_by(997) {
         let y = terrain.height_at(p.position[0], p.position[2]).unwrap();
         assert!(
@@ -172,7 +172,7 @@ fn the_same_seed_gives_the_same_bytes_for_any_thread_count() {
 /// the largest radius.
 #[test]
 fn suitable_ground_has_no_empty_disc_of_twice_the_radius() {
-    let terrain = Terrain::load(&mountain()).unwrap();
+    let terrain = Terrain::load(&mountain(), &Default::default()).unwrap();
     let species = SpeciesFile::load(&fixture("species/forest.json")).unwrap();
     let heights = vec![14.0; species.species.len()];
     let f = place::place(&terrain, &species, &heights, &PlaceSettings::default()).unwrap();
@@ -250,7 +250,7 @@ fn shade_tolerant_trees_take_the_valleys_and_sun_loving_the_ridges() {
     file["species"] = serde_json::json!([beech, pine]);
     file["analysis"]["tpi_radius"] = serde_json::json!(150);
     let species = SpeciesFile::parse(&serde_json::to_vec(&file).unwrap()).unwrap();
-    let terrain = Terrain::load(&terrain_path).unwrap();
+    let terrain = Terrain::load(&terrain_path, &Default::default()).unwrap();
     let f = place::place(&terrain, &species, &[14.0, 14.0], &PlaceSettings::default()).unwrap();
     let tpi = &f.attributes.topographic_position;
     let mean = |s: u8| {
@@ -356,8 +356,10 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
     assert_error(&o, &["tree radii range", "spacing"]);
     let o = place_on_mountain(dir.path(), &["--region", "5000,5000,6000,6000"]);
     assert_error(&o, &["--region", "outside the terrain"]);
+    // A malformed value is a usage error, caught before anything is read.
     let o = place_on_mountain(dir.path(), &["--region", "1,2,3"]);
-    assert_error(&o, &["--region", "four numbers"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--region") && stderr(&o).contains("four numbers"));
     // A terrain without triangles.
     let points = serde_json::json!({
         "asset": { "version": "2.0" },

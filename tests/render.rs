@@ -361,14 +361,23 @@ fn missing_or_stale_inputs_are_refused_before_rendering() {
     let dir = small_forest();
     for (flags, needle) in [
         (vec!["--crop", "0,0,2000,10"], "--crop"),
-        (vec!["--spp", "0"], "--spp"),
-        (vec!["--sun", "10"], "--sun"),
-        (vec!["--day", "400"], "--day"),
         (vec!["--camera", "nope"], "no such camera"),
     ] {
         let mut a = vec!["render", "forest.instances", "-o", "x.exr"];
         a.extend(flags);
         assert_error(&run(&a, dir.path()), &[needle]);
+    }
+    // A value no run could use is a usage error (status 2), found before anything is read.
+    for (flags, needle) in [
+        (vec!["--spp", "0"], "--spp"),
+        (vec!["--sun", "10"], "--sun"),
+        (vec!["--day", "400"], "--day"),
+    ] {
+        let mut a = vec!["render", "forest.instances", "-o", "x.exr"];
+        a.extend(&flags);
+        let o = run(&a, dir.path());
+        assert_eq!(o.status.code(), Some(2), "{flags:?}");
+        assert!(stderr(&o).contains(needle), "{}", stderr(&o));
     }
     // A texel rebaked since placement.
     let o = run(

@@ -65,6 +65,7 @@ def read_file(path):
     minor, H, R, P = struct.unpack_from("<HIQQ", data, 10)
     if H > 16 * 2**20: raise Bad(f"H = {H} exceeds 16 MiB")                           # 3
     if R > 2 * 2**30: raise Bad(f"R = {R} exceeds 2 GiB")
+    if P > R + R // 128 + 4096: raise Bad(f"P = {P} exceeds what zstd makes of R = {R} bytes")
     if len(data) != 36 + H + P:
         raise Bad(f"file is {len(data)} bytes, 36+H+P = {36 + H + P}: " + ("truncated" if len(data) < 36 + H + P else "trailing data"))
     crc = struct.unpack_from("<I", data, 32 + H + P)[0]                                # 4

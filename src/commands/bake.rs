@@ -4,17 +4,18 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
-use sha2::{Digest, Sha256};
 
 use texel_forest::bake::{self, BakeSettings};
 use texel_forest::formats::texel;
 use texel_forest::import;
-use texel_forest::output::{depfile, relative_path, write_atomic};
-use texel_forest::volume::{DensityModel, SourceFile};
+use texel_forest::limits::Limits;
+use texel_forest::output::{Outputs, depfile};
+use texel_forest::provenance;
+use texel_forest::volume::DensityModel;
 
 use crate::cli::{BakeArgs, DensityArg};
 
-pub fn run(args: &BakeArgs, quiet: bool) -> anyhow::Result<()> {
+pub fn run(args: &BakeArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> {
     let start = Instant::now();
     let settings = BakeSettings {
         resolution: args.resolution,
@@ -31,37 +32,32 @@ pub fn run(args: &BakeArgs, quiet: bool) -> anyhow::Result<()> {
         anyhow::bail!("--gamma applies to --density occupancy only");
     }
     settings.validate()?;
-    let model = import::load_surface(&args.input, "to bake")?;
+    let mut outputs = Outputs::new(&[&args.input]);
+    let texel_out = outputs.add("-o", &args.output)?;
+    let dep_out = args
+        .depfile
+        .as_ref()
+        .map(|d| outputs.add("--depfile", d))
+        .transpose()?;
+
+    let model = import::load_surface(&args.input, "to bake", limits)?;
     for w in &model.warnings {
         super::warn(w);
     }
+    let read: Vec<PathBuf> = model.sources.iter().map(|s| s.path.clone()).collect();
+    outputs.add_inputs(&read)?;
     let mut baked =
         bake::bake(&model.mesh, &settings).with_context(|| args.input.display().to_string())?;
-
-    let out_dir = super::output_dir(&args.output)?;
-    let mut all = Sha256::new();
-    baked.info.sources = model
-        .sources
-        .iter()
-        .map(|s| {
-            all.update(s.sha256);
-            SourceFile {
-                path: relative_path(&s.path, &out_dir),
-                sha256: s.sha256,
-                bytes: s.bytes,
-            }
-        })
-        .collect();
-    baked.info.inputs_sha256 = all.finalize().into();
+    let out_dir = super::directory_of(&args.output);
+    (baked.info.sources, baked.info.inputs_sha256) = provenance::record(&model.sources, &out_dir);
 
     let bytes = texel::encode(&baked).with_context(|| args.output.display().to_string())?;
-    write_atomic(&args.output, &bytes)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
-    if let Some(dep) = &args.depfile {
-        let deps: Vec<PathBuf> = model.sources.iter().map(|s| s.path.clone()).collect();
-        write_atomic(dep, depfile(&args.output, &deps).as_bytes())
-            .with_context(|| format!("cannot write {}", dep.display()))?;
+    let size = bytes.len();
+    outputs.set(texel_out, bytes);
+    if let Some(dep) = dep_out {
+        outputs.set(dep, depfile(&args.output, &read).into_bytes());
     }
+    outputs.commit()?;
     if !quiet {
         let l = &baked.levels[0];
         eprintln!(
@@ -76,7 +72,7 @@ pub fn run(args: &BakeArgs, quiet: bool) -> anyhow::Result<()> {
             l.cell,
             baked.levels.len(),
             baked.info.density_model.name(),
-            bytes.len() as f64 / 1024.0,
+            size as f64 / 1024.0,
             start.elapsed().as_secs_f64()
         );
     }

@@ -7,7 +7,8 @@ use anyhow::{Context, bail};
 
 use texel_forest::compare::{Comparison, Metrics, Rgba, check_same_window, compare, heatmap};
 use texel_forest::inspect::pictures::png_bytes;
-use texel_forest::output::write_atomic;
+use texel_forest::limits::Limits;
+use texel_forest::output::Outputs;
 
 use crate::cli::CompareArgs;
 
@@ -20,16 +21,25 @@ pub const TOO_DIFFERENT: u8 = 3;
 pub struct TooDifferent(pub String);
 
 /// Which pixels (by index) a mask file marks as inside.
-fn read_mask(path: &Path, like: &Rgba) -> anyhow::Result<Vec<bool>> {
+fn read_mask(path: &Path, like: &Rgba, limits: &Limits) -> anyhow::Result<Vec<bool>> {
     let is_exr = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     let (width, height, inside) = if is_exr {
-        let m = Rgba::read(path)?;
+        let m = Rgba::read(path, limits)?;
         let inside = m.pixels.iter().map(|p| p[3] > 0.5).collect();
         (m.width, m.height, inside)
     } else {
-        let m = image::open(path)
+        let mut reader = image::ImageReader::open(path)
+            .and_then(|r| r.with_guessed_format())
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let mut image_limits = image::Limits::default();
+        let side = (limits.pixels as f64).sqrt().min(u32::MAX as f64) as u32;
+        image_limits.max_image_width = Some(side.max(like.width as u32));
+        image_limits.max_image_height = Some(side.max(like.height as u32));
+        reader.limits(image_limits);
+        let m = reader
+            .decode()
             .with_context(|| format!("{}: cannot read the mask as a picture", path.display()))?
             .to_luma8();
         let inside = m.pixels().map(|p| p.0[0] > 127).collect();
@@ -64,28 +74,35 @@ fn block(title: &str, c: &Comparison) -> String {
     s
 }
 
-pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
-    let a = Rgba::read(&args.image)?;
-    let b = Rgba::read(&args.reference)?;
+pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
+    let mut inputs = vec![args.image.as_path(), args.reference.as_path()];
+    inputs.extend(args.mask.as_deref());
+    let mut outputs = Outputs::new(&inputs);
+    let heatmap_out = args
+        .heatmap
+        .as_ref()
+        .map(|h| outputs.add("--heatmap", h))
+        .transpose()?;
+    let a = Rgba::read(&args.image, limits)?;
+    let b = Rgba::read(&args.reference, limits)?;
     check_same_window(&a, &args.image, &b, &args.reference)?;
     let all = compare(&a, &b, |_| true);
     let masked = match &args.mask {
         Some(path) => {
-            let inside = read_mask(path, &a)?;
+            let inside = read_mask(path, &a, limits)?;
             Some(compare(&a, &b, |i| inside[i]))
         }
         None => None,
     };
-    let scale = args.scale.unwrap_or(all.rgb.max.max(all.alpha.max) as f32);
-    if !(scale.is_finite() && scale >= 0.0) {
-        bail!("--scale {scale} must be a non-negative error");
-    }
-    if let Some(path) = &args.heatmap {
-        super::output_dir(path)?;
+    let scale = args
+        .scale
+        .unwrap_or(all.rgb.max.max(all.alpha.max))
+        .clamp(0.0, f32::MAX as f64) as f32;
+    if let Some(id) = heatmap_out {
         // A zero scale (identical images) draws everything black rather than dividing by 0.
         let picture = heatmap(&a, &b, scale.max(f32::MIN_POSITIVE));
-        write_atomic(path, &png_bytes(&picture))
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        outputs.set(id, png_bytes(&picture));
+        outputs.commit()?;
     }
     if args.json {
         let json = serde_json::json!({
@@ -118,16 +135,26 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         }
         super::print(&text)?;
     }
-    if let Some(limit) = args.fail_above
-        && all.rgb.rmse > limit
-    {
-        return Err(TooDifferent(format!(
-            "{}: colour rmse {:.6} against {} is above --fail-above {limit}",
-            args.image.display(),
-            all.rgb.rmse,
-            args.reference.display()
-        ))
-        .into());
+    if let Some(limit) = args.fail_above {
+        // A pixel that is not finite is an error no RMSE can show: it fails the check.
+        if all.non_finite > 0 {
+            return Err(TooDifferent(format!(
+                "{}: {} pixels against {} are not finite (NaN or infinite), which --fail-above {limit} does not allow",
+                args.image.display(),
+                all.non_finite,
+                args.reference.display()
+            ))
+            .into());
+        }
+        if all.rgb.rmse > limit {
+            return Err(TooDifferent(format!(
+                "{}: colour rmse {:.6} against {} is above --fail-above {limit}",
+                args.image.display(),
+                all.rgb.rmse,
+                args.reference.display()
+            ))
+            .into());
+        }
     }
     Ok(())
 }

@@ -3,11 +3,18 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use sha2::{Digest, Sha256};
 
 use texel_forest::formats::{container, instances, texel};
-use texel_forest::inspect::{instances as forest_view, pictures, texel as summary};
-use texel_forest::output::write_atomic;
+use texel_forest::input::{self, MAX_GLTF, MAX_SPECIES};
+use texel_forest::inspect::texel::FileFacts;
+use texel_forest::inspect::{
+    instances as forest_view, pictures, terrain as terrain_view, texel as summary,
+};
+use texel_forest::limits::Limits;
+use texel_forest::output::Outputs;
+use texel_forest::place::PlaceSettings;
+use texel_forest::provenance::{self, Check};
+use texel_forest::species::SpeciesFile;
 use texel_forest::terrain::Terrain;
 
 use crate::cli::{AxisArg, InspectArgs};
@@ -18,19 +25,6 @@ fn axis_index(a: AxisArg) -> usize {
         AxisArg::Y => 1,
         AxisArg::Z => 2,
     }
-}
-
-/// `y=16` -> (1, 16).
-fn parse_slice(s: &str) -> anyhow::Result<(usize, usize)> {
-    let bad = || anyhow::anyhow!("--slice {s:?}: expected AXIS=INDEX such as y=16");
-    let (axis, index) = s.split_once('=').ok_or_else(bad)?;
-    let axis = match axis.trim().to_ascii_lowercase().as_str() {
-        "x" => 0,
-        "y" => 1,
-        "z" => 2,
-        _ => return Err(bad()),
-    };
-    Ok((axis, index.trim().parse().map_err(|_| bad())?))
 }
 
 /// A summary as JSON or as text.
@@ -47,46 +41,95 @@ fn print_summary<S: serde::Serialize>(
     super::print(&out)
 }
 
-fn write_png(out: &Path, image: &image::RgbImage) -> anyhow::Result<()> {
-    write_atomic(out, &pictures::png_bytes(image))
-        .with_context(|| format!("cannot write {}", out.display()))
+/// Writes the picture to `-o` (planned before the work, so a bad path fails first).
+fn write_png(
+    mut outputs: Outputs,
+    id: texel_forest::output::OutputId,
+    image: &image::RgbImage,
+) -> anyhow::Result<()> {
+    outputs.set(id, pictures::png_bytes(image));
+    Ok(outputs.commit()?)
 }
 
-pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
-    let file = &args.file;
-    let bytes = std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
-    if bytes.starts_with(instances::MAGIC) {
-        return run_instances(args, &bytes);
+/// What a file is: by its magic, else by its name.
+enum Kind {
+    Texel,
+    Instances,
+    Terrain,
+}
+
+fn kind_of(path: &Path, head: &[u8]) -> anyhow::Result<Kind> {
+    if head.starts_with(texel::MAGIC) {
+        return Ok(Kind::Texel);
     }
+    if head.starts_with(instances::MAGIC) {
+        return Ok(Kind::Instances);
+    }
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match extension.as_deref() {
+        // A damaged file is reported by the reader of the kind its name says.
+        Some("texel") => Ok(Kind::Texel),
+        Some("instances") => Ok(Kind::Instances),
+        Some("glb" | "gltf") => Ok(Kind::Terrain),
+        _ if head.starts_with(b"glTF") || head.trim_ascii_start().starts_with(b"{") => {
+            Ok(Kind::Terrain)
+        }
+        _ => bail!(
+            "{}: not a .texel, .instances or glTF terrain file (its first bytes match none of them)",
+            path.display()
+        ),
+    }
+}
+
+pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
+    let file = &args.file;
+    let mut outputs = Outputs::new(&[file]);
+    let picture = args
+        .output
+        .as_ref()
+        .map(|o| outputs.add("-o", o))
+        .transpose()?;
+    let head = input::read_framed(file, 16, |_| None)?;
+    match kind_of(file, &head)? {
+        Kind::Texel => run_texel(args, limits, outputs, picture),
+        Kind::Instances => run_instances(args, limits, outputs, picture),
+        Kind::Terrain => run_terrain(args, limits, outputs, picture),
+    }
+}
+
+fn facts(bytes: &[u8]) -> FileFacts {
+    let p = container::preamble(bytes);
+    FileFacts {
+        bytes: bytes.len() as u64,
+        minor: p.map_or(0, |p| p.minor),
+        raw_bytes: p.map_or(0, |p| p.raw_len),
+    }
+}
+
+fn run_texel(
+    args: &InspectArgs,
+    limits: &Limits,
+    outputs: Outputs,
+    picture: Option<texel_forest::output::OutputId>,
+) -> anyhow::Result<()> {
+    let file = &args.file;
     if args.map {
         bail!(
-            "--map draws .instances files; {} is not one",
+            "--map draws forests and terrains; {} is a texture (use --projection)",
             file.display()
         );
     }
-    let texel = texel::decode(&bytes).with_context(|| file.display().to_string())?;
+    let bytes = container::read_file(file)?;
+    let texel = texel::decode_with(&bytes, limits).with_context(|| file.display().to_string())?;
     let wants_picture = args.slice.is_some() || args.projection.is_some();
-    if !wants_picture {
-        if args.output.is_some() {
-            bail!("-o names a picture: give --slice or --projection with it");
+    let Some(out) = picture else {
+        if wants_picture {
+            bail!("--slice and --projection write a picture: give -o FILE.png");
         }
-        let preamble = container::preamble(&bytes).unwrap_or(container::Preamble {
-            major: texel::MAJOR,
-            minor: texel::MINOR,
-            header_len: 0,
-            raw_len: 0,
-            stored_len: 0,
-        });
-        let facts = summary::FileFacts {
-            bytes: bytes.len() as u64,
-            minor: preamble.minor,
-            raw_bytes: preamble.raw_len,
-        };
-        let s = summary::summarize(&texel, facts);
+        let s = summary::summarize(&texel, facts(&bytes));
         return print_summary(&s, args.json, summary::to_text);
-    }
-    let Some(out) = &args.output else {
-        bail!("--slice and --projection write a picture: give -o FILE.png");
     };
     if args.level >= texel.levels.len() {
         bail!(
@@ -96,13 +139,13 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
             texel.levels.len() - 1
         );
     }
-    let image = match (&args.slice, args.projection) {
-        (Some(s), _) => {
-            let (axis, index) = parse_slice(s)?;
+    let image = match (args.slice, args.projection) {
+        (Some((axis, index)), _) => {
             let n = texel.levels[args.level].dims[axis];
             if index >= n {
                 bail!(
-                    "--slice {s}: level {} has cells 0 to {} along {}",
+                    "--slice {}={index}: level {} has cells 0 to {} along {}",
+                    ["x", "y", "z"][axis],
                     args.level,
                     n - 1,
                     ["x", "y", "z"][axis]
@@ -111,12 +154,17 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<()> {
             pictures::slice(&texel, args.level, axis, index)
         }
         (None, Some(axis)) => pictures::projection(&texel, args.level, axis_index(axis)),
-        (None, None) => bail!("--slice or --projection names the picture to draw"),
+        (None, None) => bail!("-o names a picture: give --slice or --projection with it"),
     };
-    write_png(out, &image)
+    write_png(outputs, out, &image)
 }
 
-fn run_instances(args: &InspectArgs, bytes: &[u8]) -> anyhow::Result<()> {
+fn run_instances(
+    args: &InspectArgs,
+    limits: &Limits,
+    outputs: Outputs,
+    picture: Option<texel_forest::output::OutputId>,
+) -> anyhow::Result<()> {
     let file = &args.file;
     if args.slice.is_some() || args.projection.is_some() {
         bail!(
@@ -124,40 +172,82 @@ fn run_instances(args: &InspectArgs, bytes: &[u8]) -> anyhow::Result<()> {
             file.display()
         );
     }
-    let forest = instances::decode(bytes).with_context(|| file.display().to_string())?;
-    if !args.map {
-        if args.output.is_some() {
-            bail!("-o names a picture: give --map with it");
+    let bytes = container::read_file(file)?;
+    let forest =
+        instances::decode_with(&bytes, limits).with_context(|| file.display().to_string())?;
+    let Some(out) = picture else {
+        if args.map {
+            bail!("--map writes a picture: give -o FILE.png");
         }
-        let s = forest_view::summarize(&forest, bytes.len() as u64);
+        let s = forest_view::summarize(&forest, facts(&bytes));
         return print_summary(&s, args.json, forest_view::to_text);
-    }
-    let Some(out) = &args.output else {
-        bail!("--map writes a picture: give -o FILE.png");
     };
+    if !args.map {
+        bail!("-o names a picture: give --map with it");
+    }
     // The terrain, found relative to the forest file, shades the map; a missing or changed
     // terrain is worth a warning, not a failure.
+    let dir = file.parent().unwrap_or(Path::new(""));
     let recorded = &forest.info.terrain[0];
-    let path = file.parent().unwrap_or(Path::new("")).join(&recorded.path);
-    let terrain = match std::fs::read(&path) {
-        Err(e) => {
-            super::warn(&format!(
-                "{}: terrain {} unreadable ({e}); map without relief",
-                file.display(),
-                path.display()
-            ));
+    let path = dir.join(&recorded.path);
+    let terrain = match provenance::check(&path, &recorded.sha256, "placement", MAX_GLTF) {
+        Check::Unreadable(e) => {
+            super::warn(&format!("{}: {e}; map without relief", file.display()));
             None
         }
-        Ok(b) => {
-            if <[u8; 32]>::from(Sha256::digest(&b)) != recorded.sha256 {
-                super::warn(&format!(
-                    "{}: terrain {} changed since placement",
-                    file.display(),
-                    path.display()
-                ));
-            }
-            Some(Terrain::load(&path)?)
+        Check::Changed(e) => {
+            super::warn(&format!("{}: terrain {e}", file.display()));
+            Some(Terrain::load(&path, limits)?)
         }
+        Check::Same => Some(Terrain::load(&path, limits)?),
     };
-    write_png(out, &forest_view::map(&forest, terrain.as_ref(), 1024))
+    write_png(
+        outputs,
+        out,
+        &forest_view::map(&forest, terrain.as_ref(), 1024),
+    )
+}
+
+fn run_terrain(
+    args: &InspectArgs,
+    limits: &Limits,
+    outputs: Outputs,
+    picture: Option<texel_forest::output::OutputId>,
+) -> anyhow::Result<()> {
+    let file = &args.file;
+    if args.slice.is_some() || args.projection.is_some() {
+        bail!(
+            "--slice and --projection draw .texel files; {} is a terrain (use --map)",
+            file.display()
+        );
+    }
+    let species = match &args.species {
+        Some(path) => {
+            let bytes = input::read_bounded(path, MAX_SPECIES, "species file")?;
+            Some(SpeciesFile::parse(&bytes).map_err(|(field, message)| {
+                anyhow::anyhow!("{}: {field}: {message}", path.display())
+            })?)
+        }
+        None => None,
+    };
+    let terrain = Terrain::load(file, limits)?;
+    for w in &terrain.model.warnings {
+        super::warn(w);
+    }
+    let settings = PlaceSettings {
+        region: args.region,
+        cell: args.cell,
+        sea_level: args.sea_level,
+        ..PlaceSettings::default()
+    };
+    let base = super::directory_of(file);
+    let (sources, _) = provenance::record(&terrain.model.sources, &base);
+    let (summary, habitat) =
+        terrain_view::summarize(&terrain, species.as_ref(), &settings, sources)?;
+    match picture {
+        None if args.map => bail!("--map writes a picture: give -o FILE.png"),
+        None => print_summary(&summary, args.json, terrain_view::to_text),
+        Some(_) if !args.map => bail!("-o names a picture: give --map with it"),
+        Some(out) => write_png(outputs, out, &terrain_view::attribute_maps(&habitat)),
+    }
 }

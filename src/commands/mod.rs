@@ -12,25 +12,29 @@ use crate::cli::{Cli, Command};
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     if let Some(n) = cli.threads {
-        if n == 0 {
-            anyhow::bail!("--threads must be at least 1");
-        }
         rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
+            .num_threads(n as usize)
             .build_global()?;
     }
+    texel_forest::output::remove_temporaries_on_interrupt();
+    let limits = cli.limits();
     match cli.command {
-        Command::Bake(args) => bake::run(&args, cli.quiet),
-        Command::Place(args) => place::run(&args, cli.quiet),
-        Command::Render(args) => render::run(&args, cli.quiet),
-        Command::Inspect(args) => inspect::run(&args),
-        Command::Compare(args) => compare::run(&args),
+        Command::Bake(args) => bake::run(&args, &limits, cli.quiet),
+        Command::Place(args) => place::run(&args, &limits, cli.quiet),
+        Command::Render(args) => render::run(&args, &limits, cli.quiet),
+        Command::Inspect(args) => inspect::run(&args, &limits),
+        Command::Compare(args) => compare::run(&args, &limits),
     }
 }
 
-/// Prints a warning the way every subcommand does.
+/// Prints a warning the way every subcommand does (control characters from files escaped).
+/// Further lines of a long warning are indented under its first.
 pub fn warn(message: &str) {
-    eprintln!("texel: warning: {message}");
+    let lines: Vec<String> = message
+        .lines()
+        .map(texel_forest::inspect::printable)
+        .collect();
+    eprintln!("texel: warning: {}", lines.join("\n    "));
 }
 
 /// Writes to standard output; a reader that stops early (`| head`) is not an error.
@@ -42,14 +46,10 @@ pub fn print(text: &str) -> anyhow::Result<()> {
     }
 }
 
-/// The directory a file will be written in ("." for a bare name), created if missing.
-pub fn output_dir(output: &std::path::Path) -> anyhow::Result<std::path::PathBuf> {
-    use anyhow::Context;
-    let dir = match output.parent() {
+/// The directory a file will be written in ("." for a bare name).
+pub fn directory_of(output: &std::path::Path) -> std::path::PathBuf {
+    match output.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&dir)
-        .with_context(|| format!("cannot create directory {}", dir.display()))?;
-    Ok(dir)
+    }
 }

@@ -3,48 +3,35 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, bail};
-use sha2::{Digest, Sha256};
+use anyhow::Context;
 
+use texel_forest::formats::container;
 use texel_forest::formats::instances::{self, ForestInfo, SpeciesRecord};
 use texel_forest::formats::texel;
-use texel_forest::output::{depfile, relative_path, write_atomic};
+use texel_forest::input::{self, MAX_SPECIES};
+use texel_forest::limits::Limits;
+use texel_forest::output::{Outputs, depfile};
 use texel_forest::place::{self, PlaceSettings};
+use texel_forest::provenance;
 use texel_forest::species::SpeciesFile;
-use texel_forest::terrain::Terrain;
-use texel_forest::volume::SourceFile;
+use texel_forest::terrain::{Terrain, survey};
 
 use crate::cli::PlaceArgs;
 
-/// `x0,z0,x1,z1` -> the four numbers.
-fn parse_region(s: &str) -> anyhow::Result<[f64; 4]> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .unwrap_or_default();
-    match v.as_slice() {
-        &[a, b, c, d] => Ok([a, b, c, d]),
-        _ => bail!("--region {s:?}: expected four numbers X0,Z0,X1,Z1 (metres)"),
-    }
-}
-
-fn source(path: &Path, bytes: &[u8], out_dir: &Path) -> SourceFile {
-    SourceFile {
-        path: relative_path(path, out_dir),
-        sha256: Sha256::digest(bytes).into(),
-        bytes: bytes.len() as u64,
-    }
-}
-
-pub fn run(args: &PlaceArgs, quiet: bool) -> anyhow::Result<()> {
+pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> {
     let start = Instant::now();
-    let region = args.region.as_deref().map(parse_region).transpose()?;
-    if args.max_count == Some(0) {
-        bail!("--max-count must be at least 1");
+    let mut outputs = Outputs::new(&[&args.terrain, &args.species]);
+    let forest_out = outputs.add("-o", &args.output)?;
+    let dep_out = args
+        .depfile
+        .as_ref()
+        .map(|d| outputs.add("--depfile", d))
+        .transpose()?;
+    if let Some(m) = args.max_count {
+        limits.check_trees(m, "--max-count")?;
     }
-    let species_bytes = std::fs::read(&args.species)
-        .with_context(|| format!("cannot read {}", args.species.display()))?;
+
+    let species_bytes = input::read_bounded(&args.species, MAX_SPECIES, "species file")?;
     let species = SpeciesFile::parse(&species_bytes).map_err(|(field, message)| {
         anyhow::anyhow!(
             "{}: {}{message}",
@@ -60,42 +47,30 @@ pub fn run(args: &PlaceArgs, quiet: bool) -> anyhow::Result<()> {
 
     // Every texel the species name must exist: its model's height turns tree heights into
     // scales.
-    let out_dir = super::output_dir(&args.output)?;
+    let out_dir = super::directory_of(&args.output);
     let mut dependencies: Vec<PathBuf> = Vec::new();
     let mut records = Vec::new();
     let mut model_heights = Vec::new();
     for (i, s) in species.species.iter().enumerate() {
-        let read = |field: &str,
-                    rel: &Path|
-         -> anyhow::Result<(PathBuf, Vec<u8>, texel_forest::volume::TexelInfo)> {
+        let mut read = |field: &str, rel: &Path| -> anyhow::Result<_> {
             let path = species_dir.join(rel);
-            let bytes = std::fs::read(&path).with_context(|| {
-                format!(
-                    "{}: species[{i}].{field}: cannot read {}",
-                    args.species.display(),
-                    path.display()
-                )
-            })?;
-            let info = texel::read_info(&bytes).with_context(|| {
+            let context = || {
                 format!(
                     "{}: species[{i}].{field}: {}",
                     args.species.display(),
                     path.display()
                 )
-            })?;
-            Ok((path, bytes, info))
+            };
+            let bytes = container::read_file(&path).with_context(context)?;
+            let info = texel::read_info(&bytes).with_context(context)?;
+            let source = provenance::source(&path, &bytes, &out_dir);
+            dependencies.push(path);
+            Ok((source, info))
         };
-        let (path, bytes, info) = read("texel", &s.texel)?;
+        let (texel_source, info) = read("texel", &s.texel)?;
         let height = info.model_max[1] - info.model_min[1];
-        let texel_source = source(&path, &bytes, &out_dir);
-        dependencies.push(path);
         let leafless = match &s.leafless_texel {
-            Some(rel) => {
-                let (path, bytes, _) = read("leafless_texel", rel)?;
-                let src = source(&path, &bytes, &out_dir);
-                dependencies.push(path);
-                Some(src)
-            }
+            Some(rel) => Some(read("leafless_texel", rel)?.0),
             None => None,
         };
         model_heights.push(height);
@@ -113,84 +88,69 @@ pub fn run(args: &PlaceArgs, quiet: bool) -> anyhow::Result<()> {
             seasons: s.seasons.clone(),
         });
     }
+    outputs.add_inputs(&dependencies)?;
 
-    let terrain = Terrain::load(&args.terrain)?;
+    let terrain = Terrain::load(&args.terrain, limits)?;
     for w in &terrain.model.warnings {
         super::warn(w);
     }
+    let terrain_files: Vec<PathBuf> = terrain
+        .model
+        .sources
+        .iter()
+        .map(|s| s.path.clone())
+        .collect();
+    outputs.add_inputs(&terrain_files)?;
     let settings = PlaceSettings {
         seed: args.seed,
-        max_count: args.max_count.unwrap_or(usize::MAX),
-        region,
+        max_count: args.max_count.map_or(usize::MAX, |m| m as usize),
+        region: args.region,
         cell: args.cell,
+        sea_level: args.sea_level,
     };
     // Placement's errors name the flag or the species setting at fault.
     let forest = place::place(&terrain, &species, &model_heights, &settings)?;
+    limits.check_trees(forest.instances.len() as u64, "the forest's tree count")?;
     if forest.truncated {
         super::warn(&format!(
             "--max-count {} reached: the forest does not fill the region",
             settings.max_count
         ));
     }
-    if forest.instances.is_empty() {
-        super::warn("no ground in the region suits any species: the forest is empty");
-    }
+    warn_if_lopsided(&forest, &species);
 
-    let terrain_sources: Vec<SourceFile> = terrain
-        .model
-        .sources
-        .iter()
-        .map(|s| SourceFile {
-            path: relative_path(&s.path, &out_dir),
-            sha256: s.sha256,
-            bytes: s.bytes,
-        })
-        .collect();
-    let lo = forest.instances.iter().fold([f64::INFINITY; 3], |a, p| {
-        std::array::from_fn(|c| a[c].min(p.position[c]))
-    });
-    let origin = if forest.instances.is_empty() {
-        [0.0; 3]
-    } else {
-        lo.map(f64::floor)
-    };
-    let info = ForestInfo {
-        generator: concat!("texel-forest ", env!("CARGO_PKG_VERSION")).to_string(),
-        terrain: terrain_sources,
-        species_file: source(&args.species, &species_bytes, &out_dir),
-        seed: args.seed,
-        region: forest.region,
-        raster_cell: forest.raster.cell,
-        max_count: args.max_count.map_or(u64::MAX, |m| m as u64),
-        truncated: forest.truncated,
-        terrain_min: terrain.lo.to_array(),
-        terrain_max: terrain.hi.to_array(),
-        origin,
-        species: records,
-    };
+    let (terrain_records, _) = provenance::record(&terrain.model.sources, &out_dir);
     let file = instances::Forest {
-        info,
+        info: ForestInfo {
+            generator: concat!("texel-forest ", env!("CARGO_PKG_VERSION")).to_string(),
+            terrain: terrain_records,
+            species_file: provenance::source(&args.species, &species_bytes, &out_dir),
+            seed: args.seed,
+            region: forest.region,
+            raster_cell: forest.raster.cell,
+            max_count: args.max_count.unwrap_or(u64::MAX),
+            truncated: forest.truncated,
+            terrain_min: terrain.lo.to_array(),
+            terrain_max: terrain.hi.to_array(),
+            origin: place::quantisation_origin(&forest.instances),
+            species: records,
+        },
         instances: forest.instances,
     };
     let bytes = instances::encode(&file).with_context(|| args.output.display().to_string())?;
-    write_atomic(&args.output, &bytes)
-        .with_context(|| format!("cannot write {}", args.output.display()))?;
-    if let Some(dep) = &args.depfile {
-        let mut deps: Vec<PathBuf> = terrain
-            .model
-            .sources
-            .iter()
-            .map(|s| s.path.clone())
-            .collect();
+    let size = bytes.len();
+    outputs.set(forest_out, bytes);
+    if let Some(dep) = dep_out {
+        let mut deps = terrain_files;
         deps.push(args.species.clone());
         for d in dependencies {
             if !deps.contains(&d) {
                 deps.push(d);
             }
         }
-        write_atomic(dep, depfile(&args.output, &deps).as_bytes())
-            .with_context(|| format!("cannot write {}", dep.display()))?;
+        outputs.set(dep, depfile(&args.output, &deps).into_bytes());
     }
+    outputs.commit()?;
     if !quiet {
         let n = file.instances.len();
         let mut counts = vec![0usize; file.info.species.len()];
@@ -210,9 +170,50 @@ pub fn run(args: &PlaceArgs, quiet: bool) -> anyhow::Result<()> {
             per_species.join(", "),
             (r[2] - r[0]) * (r[3] - r[1]) / 1e4,
             args.output.display(),
-            bytes.len() as f64 / n.max(1) as f64,
+            size as f64 / n.max(1) as f64,
             start.elapsed().as_secs_f64()
         );
     }
     Ok(())
+}
+
+/// An empty forest, or one species taking every tree, usually means the species file's
+/// habitats do not fit this terrain (a coarse DEM's slopes and wetness differ from a fine
+/// one's): say what the terrain offers and what each species asks for.
+fn warn_if_lopsided(forest: &place::Forest, species: &SpeciesFile) {
+    let n = forest.instances.len();
+    let mut counts = vec![0usize; species.species.len()];
+    for p in &forest.instances {
+        counts[p.species as usize] += 1;
+    }
+    let why = if n == 0 {
+        "no ground in the region suits any species: the forest is empty".to_string()
+    } else if species.species.len() > 1
+        && let Some(only) = counts.iter().position(|&c| c == n)
+    {
+        format!(
+            "every tree is {:?}: no ground in the region suits the other species",
+            species.species[only].name
+        )
+    } else {
+        return;
+    };
+    let region = forest.region;
+    let raster = &forest.raster;
+    let inside = |k: usize| {
+        let x = raster.x0 + ((k % raster.nx) as f64 + 0.5) * raster.cell;
+        let z = raster.z0 + ((k / raster.nx) as f64 + 0.5) * raster.cell;
+        (region[0]..=region[2]).contains(&x) && (region[1]..=region[3]).contains(&z)
+    };
+    let s = survey::survey(
+        raster,
+        &forest.attributes,
+        species.analysis.tpi_radius,
+        Some(&inside),
+        Some((species, &forest.suitability)),
+    );
+    super::warn(&format!(
+        "{why}. What the terrain offers and what the species ask for (`texel inspect TERRAIN` shows more):\n{}",
+        survey::to_text(&s).trim_end()
+    ));
 }

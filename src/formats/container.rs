@@ -129,6 +129,27 @@ fn u64_at(b: &[u8], at: usize) -> u64 {
     u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
 }
 
+/// The most bytes a zstd frame of `raw` bytes may take (above zstd's own bound,
+/// `raw + raw/256 + 64`): a larger `P` is damage, not compression.
+pub fn max_stored(raw: u64) -> u64 {
+    raw + raw / 128 + 4096
+}
+
+/// Reads a container file: its preamble first, then only as many bytes as the preamble
+/// promises (one more, to see trailing data), within the limits of step 4. A file that is not a
+/// container, or whose preamble is absurd, is read no further than its preamble, and the
+/// reader then refuses it with the right message.
+pub fn read_file(path: &std::path::Path) -> Result<Vec<u8>, crate::input::InputError> {
+    crate::input::read_framed(path, PREAMBLE, |b| {
+        if b.len() < PREAMBLE {
+            return None;
+        }
+        let (h, r, p) = (u32_at(b, 12) as u64, u64_at(b, 16), u64_at(b, 24));
+        (h <= MAX_HEADER as u64 && r <= MAX_PAYLOAD && p <= max_stored(r))
+            .then_some(PREAMBLE as u64 + 4 + h + p)
+    })
+}
+
 /// The fixed fields of a container's preamble, read without any check: for describing a file
 /// that has already been read successfully.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -225,6 +246,11 @@ pub fn open<'a>(
     if raw_len > MAX_PAYLOAD {
         return Err(ContainerError::Corrupt(format!(
             "payload length {raw_len} exceeds {MAX_PAYLOAD}"
+        )));
+    }
+    if stored_len > max_stored(raw_len) {
+        return Err(ContainerError::Corrupt(format!(
+            "stored payload length {stored_len} exceeds what zstd makes of {raw_len} bytes"
         )));
     }
     let expected = (PREAMBLE as u64 + 4)

@@ -8,6 +8,8 @@ use gltf_json as json;
 use sha2::{Digest, Sha256};
 
 use super::{ImportError, Source};
+use crate::input::{self, InputError, MAX_GLTF};
+use crate::limits::Limits;
 
 /// Extensions that change geometry or data layout and that we cannot decode.
 const COMPRESSION_EXTENSIONS: &[&str] = &[
@@ -36,6 +38,9 @@ const TOLERATED_REQUIRED: &[&str] = &[
     "KHR_lights_punctual",
 ];
 
+/// Bytes a buffer file may have beyond its declared `byteLength` (padding).
+const BUFFER_SLACK: u64 = 1 << 16;
+
 /// Largest JSON chunk we parse; real tree assets are kilobytes.
 const MAX_JSON_BYTES: usize = 256 << 20;
 
@@ -47,27 +52,58 @@ pub(super) struct Document {
     buffers: Vec<Option<Vec<u8>>>,
     pub sources: Vec<Source>,
     pub warnings: Vec<String>,
+    pub limits: Limits,
 }
 
 fn sha256(bytes: &[u8]) -> [u8; 32] {
     Sha256::digest(bytes).into()
 }
 
-fn read_file(path: &Path) -> Result<Vec<u8>, ImportError> {
-    std::fs::read(path).map_err(|source| ImportError::Io {
-        file: path.to_path_buf(),
-        source,
+fn from_input(e: InputError) -> ImportError {
+    match e {
+        InputError::Io { path, source } => ImportError::Io { file: path, source },
+        InputError::TooLarge { path, limit, what } => ImportError::unsupported(
+            &path,
+            "",
+            format!("larger than the {limit} bytes a {what} may have"),
+        ),
+    }
+}
+
+/// A glTF file, read no further than its first bytes when they say it is not glTF (a binary
+/// `glTF` header, or JSON's `{` after any byte-order mark and white space), and no further than
+/// its declared length when it is a `.glb`.
+fn read_gltf(path: &Path) -> Result<Vec<u8>, ImportError> {
+    let bytes = input::read_framed(path, 12, |head| {
+        if head.starts_with(b"glTF") && head.len() >= 12 {
+            let length = u32::from_le_bytes([head[8], head[9], head[10], head[11]]);
+            return Some(u64::from(length).min(MAX_GLTF));
+        }
+        let text = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
+        let first = text.iter().find(|b| !b.is_ascii_whitespace());
+        matches!(first, None | Some(b'{')).then_some(MAX_GLTF)
     })
+    .map_err(from_input)?;
+    if bytes.len() as u64 > MAX_GLTF {
+        return Err(from_input(InputError::TooLarge {
+            path: path.to_path_buf(),
+            limit: MAX_GLTF,
+            what: "glTF file",
+        }));
+    }
+    Ok(bytes)
 }
 
 impl Document {
-    pub fn open(path: &Path) -> Result<Document, ImportError> {
-        let bytes = read_file(path)?;
-        Document::parse(path, bytes)
+    pub fn open(path: &Path, limits: &Limits) -> Result<Document, ImportError> {
+        let bytes = read_gltf(path)?;
+        let mut doc = Document::parse(path, bytes)?;
+        doc.limits = *limits;
+        Ok(doc)
     }
 
     /// A document from the bytes of the file at `path` (which names it in errors and anchors
-    /// its relative URIs).
+    /// its relative URIs), within the default limits.
     pub fn parse(path: &Path, bytes: Vec<u8>) -> Result<Document, ImportError> {
         let source = Source {
             path: path.to_path_buf(),
@@ -77,6 +113,14 @@ impl Document {
         let (json_bytes, glb_bin) = if bytes.starts_with(b"glTF") {
             split_glb(path, &bytes)?
         } else {
+            let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
+            if text.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'{') {
+                return Err(ImportError::invalid(
+                    path,
+                    "",
+                    "not a glTF file: it starts with neither the binary glTF header nor JSON",
+                ));
+            }
             (bytes.as_slice(), None)
         };
         if json_bytes.len() > MAX_JSON_BYTES {
@@ -115,6 +159,7 @@ impl Document {
             buffers,
             sources: vec![source],
             warnings,
+            limits: Limits::default(),
         })
     }
 
@@ -150,7 +195,10 @@ impl Document {
                         ));
                     }
                 },
-                Some(uri) => self.resolve_uri(uri, &where_)?,
+                // A buffer file may be padded a little past its byteLength, no more.
+                Some(uri) => {
+                    self.resolve_uri(uri, &where_, declared.saturating_add(BUFFER_SLACK))?
+                }
             };
             if (data.len() as u64) < declared {
                 return Err(ImportError::invalid(
@@ -169,7 +217,12 @@ impl Document {
 
     /// Reads a data URI or a file relative to the glTF. Network and absolute URIs are refused:
     /// a build step must not read outside what its inputs name.
-    pub fn resolve_uri(&mut self, uri: &str, field: &str) -> Result<Vec<u8>, ImportError> {
+    pub fn resolve_uri(
+        &mut self,
+        uri: &str,
+        field: &str,
+        limit: u64,
+    ) -> Result<Vec<u8>, ImportError> {
         if let Some(rest) = uri.strip_prefix("data:") {
             let Some((_, payload)) = rest.split_once(";base64,") else {
                 return Err(ImportError::unsupported(
@@ -202,13 +255,20 @@ impl Document {
             .parent()
             .unwrap_or(Path::new(""))
             .join(decoded.as_ref());
-        let bytes = read_file(&file).map_err(|e| match e {
-            ImportError::Io { source, .. } => ImportError::invalid(
+        let bytes = input::read_bounded(&file, limit, "file").map_err(|e| match e {
+            InputError::Io { source, .. } => ImportError::invalid(
                 &self.path,
                 field,
                 format!("cannot read {}: {source}", file.display()),
             ),
-            other => other,
+            InputError::TooLarge { limit, .. } => ImportError::invalid(
+                &self.path,
+                field,
+                format!(
+                    "{} holds more than the {limit} bytes it may",
+                    file.display()
+                ),
+            ),
         })?;
         if !self.sources.iter().any(|s| s.path == file) {
             self.sources.push(Source {

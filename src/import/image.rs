@@ -149,7 +149,7 @@ pub(super) fn load_texture(
     };
     let (uri, view) = (image.uri.clone(), image.buffer_view.map(|v| v.value()));
     let bytes = match (uri, view) {
-        (Some(uri), _) => doc.resolve_uri(&uri, &here)?,
+        (Some(uri), _) => doc.resolve_uri(&uri, &here, crate::input::MAX_IMAGE)?,
         (None, Some(view)) => {
             let Some(v) = doc.root.buffer_views.get(view) else {
                 return Err(ImportError::invalid(

@@ -19,6 +19,8 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Vec2, Vec3, Vec4};
 
+use crate::limits::Limits;
+
 pub use self::image::{Texture, WrapMode};
 
 /// A triangle soup with per-vertex attributes, ready for scan conversion.
@@ -230,7 +232,12 @@ impl ImportError {
 /// flattens the default scene into one mesh in the model's space. The scene may hold no
 /// triangles at all (a file of cameras and lights); see [`load_surface`].
 pub fn load(path: &Path) -> Result<Model, ImportError> {
-    let mut doc = document::Document::open(path)?;
+    load_with(path, &Limits::default())
+}
+
+/// [`load`] within `limits` (triangles once every node is instanced).
+pub fn load_with(path: &Path, limits: &Limits) -> Result<Model, ImportError> {
+    let mut doc = document::Document::open(path, limits)?;
     let (mesh, cameras, suns) = scene::flatten(&mut doc)?;
     Ok(Model {
         mesh,
@@ -243,8 +250,8 @@ pub fn load(path: &Path) -> Result<Model, ImportError> {
 
 /// [`load`] for a file that must hold a surface; `purpose` completes "there is nothing ...",
 /// e.g. "to bake".
-pub fn load_surface(path: &Path, purpose: &str) -> Result<Model, ImportError> {
-    let model = load(path)?;
+pub fn load_surface(path: &Path, purpose: &str, limits: &Limits) -> Result<Model, ImportError> {
+    let model = load_with(path, limits)?;
     if model.mesh.triangles.is_empty() {
         return Err(ImportError::invalid(
             path,

@@ -349,6 +349,18 @@ fn add_primitive(
         None => (0..n as u32).collect(),
     };
     let corners = triangulate(mode, &indices);
+    // Instancing multiplies what a small file holds: check the scene's size before growing it.
+    let limits = doc.limits;
+    let what = "the triangles of the scene with every node instanced";
+    limits
+        .check_triangles((b.mesh.triangles.len() + corners.len()) as u64, what)
+        .and_then(|_| {
+            limits.check_triangles(
+                ((b.mesh.positions.len() + n) / 3) as u64,
+                "a third of the scene's vertices with every node instanced",
+            )
+        })
+        .map_err(|e| ImportError::invalid(&path, &field, e))?;
 
     let base = b.mesh.positions.len() as u32;
     let mirrored = world.determinant() < 0.0;

@@ -5,8 +5,9 @@ use std::fmt::Write as _;
 use image::RgbImage;
 use serde::Serialize;
 
+use super::printable;
+use crate::formats::hex;
 use crate::formats::instances::Forest;
-use crate::formats::{hex, instances};
 use crate::terrain::{Heightfield, Terrain, hillshade};
 use crate::volume::SourceFile;
 
@@ -28,11 +29,14 @@ pub fn colour(species: usize) -> [u8; 3] {
 
 #[derive(Serialize, Debug)]
 pub struct ForestSummary {
-    pub format: &'static str,
+    /// Format name and version, e.g. `instances 1.0`.
+    pub format: String,
     pub generator: String,
     pub file_bytes: u64,
+    /// The payload before compression, as the file declares it.
     pub raw_bytes: u64,
-    pub bytes_per_tree: f64,
+    /// File bytes per tree; absent for an empty forest.
+    pub bytes_per_tree: Option<f64>,
     pub trees: usize,
     pub region: [f64; 4],
     pub hectares: f64,
@@ -40,9 +44,10 @@ pub struct ForestSummary {
     pub truncated: bool,
     pub species: Vec<SpeciesSummary>,
     /// Smallest distance between two trees (m), and smallest ratio of a distance to the
-    /// larger of the two trees' radii (the placement rule keeps it >= 1).
-    pub min_distance: f64,
-    pub min_distance_ratio: f64,
+    /// larger of the two trees' radii (the placement rule keeps it >= 1); absent with fewer
+    /// than two trees.
+    pub min_distance: Option<f64>,
+    pub min_distance_ratio: Option<f64>,
     /// Tree heights (m): ten equal bins between the smallest and the largest.
     pub height_bins: Vec<(f64, f64, usize)>,
     pub terrain: Vec<SourceFile>,
@@ -56,7 +61,8 @@ pub struct SpeciesSummary {
     pub per_hectare: f64,
     pub map_colour: String,
     pub texel: String,
-    pub height_range: [f64; 2],
+    /// Shortest and tallest tree (m); absent when the species has none.
+    pub height_range: Option<[f64; 2]>,
 }
 
 /// Tree height (m) of an instance.
@@ -64,48 +70,63 @@ fn height(f: &Forest, p: &crate::place::Instance) -> f64 {
     p.scale as f64 * f.info.species[p.species as usize].model_height
 }
 
-/// Smallest distance and smallest distance-to-radius ratio over all pairs closer than the
-/// largest radius, found with a background grid of that size.
-fn spacing(f: &Forest) -> (f64, f64) {
+/// Smallest distance and smallest distance-to-radius ratio over all pairs that could hold
+/// either (`None` with fewer than two trees), by a plane sweep: trees in order of x, and for
+/// each only the earlier trees within the current best reach in x and z. A pair's ratio is at
+/// least its distance over the largest radius, so the reach is the larger of the best distance
+/// and the best ratio times that radius; it shrinks as better pairs are found, which keeps
+/// clustered forests fast, and coincident trees end the sweep at once.
+fn spacing(f: &Forest) -> Option<(f64, f64)> {
     let radius =
         |p: &crate::place::Instance| f.info.species[p.species as usize].radius(p.scale as f64);
+    let n = f.instances.len();
+    if n < 2 {
+        return None;
+    }
     let r_max = f.instances.iter().map(radius).fold(0.0, f64::max).max(1e-6);
-    let mut cells: std::collections::HashMap<(i64, i64), Vec<usize>> =
-        std::collections::HashMap::new();
-    let key = |p: &crate::place::Instance| {
-        (
-            (p.position[0] / r_max).floor() as i64,
-            (p.position[2] / r_max).floor() as i64,
-        )
-    };
-    for (i, p) in f.instances.iter().enumerate() {
-        cells.entry(key(p)).or_default().push(i);
-    }
+    let (x, z) = (
+        |i: usize| f.instances[i].position[0],
+        |i: usize| f.instances[i].position[2],
+    );
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| x(a).total_cmp(&x(b)));
+    // Trees within reach in x, by (z in millimetres, index).
+    let key = |i: usize| ((z(i) * 1000.0).round() as i64, i);
+    let mut active: std::collections::BTreeSet<(i64, usize)> = Default::default();
     let (mut distance, mut ratio) = (f64::INFINITY, f64::INFINITY);
-    for (i, p) in f.instances.iter().enumerate() {
-        let (cx, cz) = key(p);
-        for dz in -1..=1 {
-            for dx in -1..=1 {
-                for &j in cells
-                    .get(&(cx + dx, cz + dz))
-                    .map(Vec::as_slice)
-                    .unwrap_or_default()
-                {
-                    if j <= i {
-                        continue;
-                    }
-                    let q = &f.instances[j];
-                    let d = (p.position[0] - q.position[0]).hypot(p.position[2] - q.position[2]);
-                    distance = distance.min(d);
-                    ratio = ratio.min(d / radius(p).max(radius(q)));
-                }
-            }
+    let mut left = 0;
+    for &i in &order {
+        if distance == 0.0 {
+            break;
         }
+        let reach = distance.max(ratio * r_max);
+        while x(order[left]) < x(i) - reach {
+            active.remove(&key(order[left]));
+            left += 1;
+        }
+        let lo = if reach.is_finite() {
+            ((z(i) - reach) * 1000.0).floor() as i64
+        } else {
+            i64::MIN
+        };
+        let hi = if reach.is_finite() {
+            ((z(i) + reach) * 1000.0).ceil() as i64
+        } else {
+            i64::MAX
+        };
+        for &(_, j) in active.range((lo, 0)..=(hi, usize::MAX)) {
+            let (p, q) = (&f.instances[i], &f.instances[j]);
+            let d = (p.position[0] - q.position[0]).hypot(p.position[2] - q.position[2]);
+            distance = distance.min(d);
+            ratio = ratio.min(d / radius(p).max(radius(q)));
+        }
+        active.insert(key(i));
     }
-    (distance, ratio)
+    Some((distance, ratio))
 }
 
-pub fn summarize(f: &Forest, file_bytes: u64) -> ForestSummary {
+pub fn summarize(f: &Forest, file: super::texel::FileFacts) -> ForestSummary {
+    let file_bytes = file.bytes;
     let n = f.instances.len();
     let r = f.info.region;
     let hectares = (r[2] - r[0]) * (r[3] - r[1]) / 1e4;
@@ -127,10 +148,12 @@ pub fn summarize(f: &Forest, file_bytes: u64) -> ForestSummary {
                 per_hectare: mine.len() as f64 / hectares,
                 map_colour: format!("#{}", hex(&colour(i))),
                 texel: s.texel.clone(),
-                height_range: [
-                    mine.iter().copied().fold(f64::INFINITY, f64::min),
-                    mine.iter().copied().fold(0.0, f64::max),
-                ],
+                height_range: (!mine.is_empty()).then(|| {
+                    [
+                        mine.iter().copied().fold(f64::INFINITY, f64::min),
+                        mine.iter().copied().fold(0.0, f64::max),
+                    ]
+                }),
             }
         })
         .collect();
@@ -150,21 +173,21 @@ pub fn summarize(f: &Forest, file_bytes: u64) -> ForestSummary {
     } else {
         bins.clear();
     }
-    let (min_distance, min_distance_ratio) = spacing(f);
+    let closest = spacing(f);
     ForestSummary {
-        format: "instances 1",
+        format: format!("instances 1.{}", file.minor),
         generator: f.info.generator.clone(),
         file_bytes,
-        raw_bytes: (n * instances::RAW_BYTES_PER_INSTANCE) as u64,
-        bytes_per_tree: file_bytes as f64 / n.max(1) as f64,
+        raw_bytes: file.raw_bytes,
+        bytes_per_tree: (n > 0).then(|| file_bytes as f64 / n as f64),
         trees: n,
         region: r,
         hectares,
         seed: f.info.seed,
         truncated: f.info.truncated,
         species,
-        min_distance,
-        min_distance_ratio,
+        min_distance: closest.map(|c| c.0),
+        min_distance_ratio: closest.map(|c| c.1),
         height_bins: bins,
         terrain: f.info.terrain.clone(),
         species_file: f.info.species_file.clone(),
@@ -173,11 +196,19 @@ pub fn summarize(f: &Forest, file_bytes: u64) -> ForestSummary {
 
 pub fn to_text(s: &ForestSummary) -> String {
     let mut o = String::new();
-    let _ = writeln!(o, "format        {} (written by {})", s.format, s.generator);
     let _ = writeln!(
         o,
-        "size          {} bytes on disk, {:.2} per tree ({} raw)",
-        s.file_bytes, s.bytes_per_tree, s.raw_bytes
+        "format        {} (written by {})",
+        s.format,
+        printable(&s.generator)
+    );
+    let per_tree = s
+        .bytes_per_tree
+        .map_or(String::new(), |b| format!(", {b:.2} per tree"));
+    let _ = writeln!(
+        o,
+        "size          {} bytes on disk{per_tree} ({} raw)",
+        s.file_bytes, s.raw_bytes
     );
     let r = s.region;
     let _ = writeln!(
@@ -190,35 +221,46 @@ pub fn to_text(s: &ForestSummary) -> String {
     } else {
         ""
     };
-    let _ = writeln!(
-        o,
-        "trees         {}{cut}, {:.1} per hectare",
-        s.trees,
-        s.trees as f64 / s.hectares
-    );
+    if s.trees == 0 {
+        let _ = writeln!(o, "trees         no trees{cut}");
+    } else {
+        let _ = writeln!(
+            o,
+            "trees         {}{cut}, {:.1} per hectare",
+            s.trees,
+            s.trees as f64 / s.hectares
+        );
+    }
     let _ = writeln!(
         o,
         "species       {:<14} {:>8} {:>9} {:>15}  map      texel",
         "", "trees", "per ha", "height m"
     );
     for sp in &s.species {
+        let heights = sp.height_range.map_or(format!("{:>15}", "-"), |h| {
+            format!("{:>6.1} .. {:>5.1}", h[0], h[1])
+        });
         let _ = writeln!(
             o,
-            "              {:<14} {:>8} {:>9.1} {:>6.1} .. {:>5.1}  {}  {}",
-            sp.name,
+            "              {:<14} {:>8} {:>9.1} {heights}  {}  {}",
+            printable(&sp.name),
             sp.trees,
             sp.per_hectare,
-            sp.height_range[0],
-            sp.height_range[1],
             sp.map_colour,
-            sp.texel
+            printable(&sp.texel)
         );
     }
-    let _ = writeln!(
-        o,
-        "spacing       closest pair {:.2} m; closest relative to the larger radius {:.3} (the rule keeps it >= 1)",
-        s.min_distance, s.min_distance_ratio
-    );
+    match (s.min_distance, s.min_distance_ratio) {
+        (Some(d), Some(r)) => {
+            let _ = writeln!(
+                o,
+                "spacing       closest pair {d:.2} m; closest relative to the larger radius {r:.3} (the rule keeps it >= 1)"
+            );
+        }
+        _ => {
+            let _ = writeln!(o, "spacing       fewer than two trees");
+        }
+    }
     let most = s.height_bins.iter().map(|b| b.2).max().unwrap_or(1).max(1);
     let _ = writeln!(o, "heights");
     for (lo, hi, count) in &s.height_bins {
@@ -230,13 +272,18 @@ pub fn to_text(s: &ForestSummary) -> String {
         let _ = writeln!(
             o,
             "{label:<13} {}  {} bytes  sha256 {}",
-            t.path,
+            printable(&t.path),
             t.bytes,
             hex(&t.sha256)
         );
     }
     let sf = &s.species_file;
-    let _ = writeln!(o, "species file  {}  sha256 {}", sf.path, hex(&sf.sha256));
+    let _ = writeln!(
+        o,
+        "species file  {}  sha256 {}",
+        printable(&sf.path),
+        hex(&sf.sha256)
+    );
     o
 }
 

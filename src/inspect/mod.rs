@@ -2,6 +2,7 @@
 
 pub mod instances;
 pub mod pictures;
+pub mod terrain;
 pub mod texel;
 
 /// Text from a file, safe to print on a terminal: control characters (C0, DEL, C1) and the

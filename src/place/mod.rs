@@ -47,6 +47,8 @@ pub struct PlaceSettings {
     pub region: Option<[f64; 4]>,
     /// Raster cell (m); `None` = the mesh's own resolution.
     pub cell: Option<f64>,
+    /// Nothing grows where the ground is lower (m); `None` = no limit.
+    pub sea_level: Option<f64>,
 }
 
 impl Default for PlaceSettings {
@@ -56,6 +58,7 @@ impl Default for PlaceSettings {
             max_count: usize::MAX,
             region: None,
             cell: None,
+            sea_level: None,
         }
     }
 }
@@ -116,22 +119,23 @@ pub fn region_of(terrain: &Terrain, region: Option<[f64; 4]>) -> Result<[f64; 4]
     Ok(clipped)
 }
 
-/// Places trees of `species` (whose texel models are `model_heights` tall, in model units) on
-/// `terrain`.
-pub fn place(
+/// The ground as placement judges it: the height raster over the region (and a
+/// topographic-position radius around it), its attributes, and each species' suitability.
+pub struct Habitat {
+    pub region: [f64; 4],
+    pub raster: Heightfield,
+    pub attributes: Attributes,
+    /// Per species, suitability on the raster (0 below `sea_level`).
+    pub suitability: Vec<Vec<f32>>,
+}
+
+/// Judges the ground of `terrain` for `species` with `settings`' region, cell and sea level.
+pub fn habitat(
     terrain: &Terrain,
     species: &SpeciesFile,
-    model_heights: &[f64],
     settings: &PlaceSettings,
-) -> Result<Forest, PlaceError> {
+) -> Result<Habitat, PlaceError> {
     let region = region_of(terrain, settings.region)?;
-    let (r_min, r_max) = radius_range(species);
-    if r_max / r_min > MAX_RADIUS_RATIO {
-        return Err(PlaceError::Settings(format!(
-            "tree radii range from {r_min:.2} m to {r_max:.2} m; placement needs the largest within \
-             {MAX_RADIUS_RATIO} times the smallest (check the species' spacing and height)"
-        )));
-    }
     let cell = settings.cell.unwrap_or_else(|| terrain.natural_cell());
     if !(cell.is_finite() && cell > 0.0) {
         return Err(PlaceError::Settings(format!(
@@ -156,6 +160,7 @@ pub fn place(
     }
     let raster = Heightfield::sample(terrain, extent[0], extent[1], extent[2], extent[3], cell);
     let attributes = Attributes::compute(&raster, species.analysis.tpi_radius);
+    let above_sea = |h: f64| settings.sea_level.is_none_or(|sea| h >= sea);
     let suitability: Vec<Vec<f32>> = species
         .species
         .iter()
@@ -164,11 +169,45 @@ pub fn place(
                 .into_par_iter()
                 .map(|k| {
                     let a = [0, 1, 2, 3, 4].map(|n| attributes.get(&raster, n)[k] as f64);
-                    s.habitat.suitability(a) as f32
+                    if above_sea(a[0]) {
+                        s.habitat.suitability(a) as f32
+                    } else {
+                        0.0
+                    }
                 })
                 .collect()
         })
         .collect();
+    Ok(Habitat {
+        region,
+        raster,
+        attributes,
+        suitability,
+    })
+}
+
+/// Places trees of `species` (whose texel models are `model_heights` tall, in model units) on
+/// `terrain`.
+pub fn place(
+    terrain: &Terrain,
+    species: &SpeciesFile,
+    model_heights: &[f64],
+    settings: &PlaceSettings,
+) -> Result<Forest, PlaceError> {
+    let (r_min, r_max) = radius_range(species);
+    if r_max / r_min > MAX_RADIUS_RATIO {
+        return Err(PlaceError::Settings(format!(
+            "tree radii range from {r_min:.2} m to {r_max:.2} m; placement needs the largest within \
+             {MAX_RADIUS_RATIO} times the smallest (check the species' spacing and height)"
+        )));
+    }
+    let Habitat {
+        region,
+        raster,
+        attributes,
+        suitability,
+    } = habitat(terrain, species, settings)?;
+    let above_sea = |h: f64| settings.sea_level.is_none_or(|sea| h >= sea);
 
     let min_suitability = species.analysis.min_suitability.max(1e-6);
     // Bilinear suitability is a blend of four raster nodes, so a point can suit a species only
@@ -239,10 +278,16 @@ pub fn place(
     )?;
     let truncated = samples.len() >= settings.max_count;
 
+    // The raster judged habitat at its cells' centres; a tree stands on the exact ground, which
+    // must be above the sea and within its species' elevation band too.
     let mut instances: Vec<Instance> = samples
         .par_iter()
         .filter_map(|(disc, (species_index, height, key))| {
             let y = terrain.height_at(disc.x, disc.z)?;
+            let band = species.species[*species_index as usize].habitat.elevation;
+            if !above_sea(y) || band.is_some_and(|b| b.factor(y) <= 0.0) {
+                return None;
+            }
             Some(Instance {
                 species: *species_index,
                 position: [disc.x, y, disc.z],
@@ -266,6 +311,18 @@ pub fn place(
         instances,
         truncated,
     })
+}
+
+/// The `.instances` quantisation origin for `trees`: the whole metres at or below their
+/// smallest coordinates, so stored centimetres are small and non-negative (0 for no trees).
+pub fn quantisation_origin(trees: &[Instance]) -> [f64; 3] {
+    if trees.is_empty() {
+        return [0.0; 3];
+    }
+    let lo = trees.iter().fold([f64::INFINITY; 3], |a, p| {
+        std::array::from_fn(|c| a[c].min(p.position[c]))
+    });
+    lo.map(f64::floor)
 }
 
 /// The radius the sampler keeps, a little larger than the tree's: positions are stored to the

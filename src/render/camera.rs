@@ -134,6 +134,78 @@ impl Camera {
         m
     }
 
+    /// A view of the box `lo..hi` from the compass `azimuth` (degrees clockwise from north,
+    /// -Z), `elevation` degrees above it, aimed and distanced so that the box's eight corners
+    /// span 90% of the frame's tighter side.
+    pub fn framing(
+        lo: DVec3,
+        hi: DVec3,
+        (azimuth, elevation): (f64, f64),
+        vfov_degrees: f64,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera, String> {
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Err("the box to frame is not finite".into());
+        }
+        let corners: Vec<DVec3> = (0..8)
+            .map(|k| {
+                DVec3::new(
+                    [lo.x, hi.x][k & 1],
+                    [lo.y, hi.y][(k >> 1) & 1],
+                    [lo.z, hi.z][k >> 2],
+                )
+            })
+            .collect();
+        let (az, el) = (azimuth.to_radians(), elevation.to_radians());
+        let towards_eye = DVec3::new(az.sin() * el.cos(), el.sin(), -az.cos() * el.cos());
+        let mut target = (lo + hi) * 0.5;
+        let mut distance = (hi - lo).length().max(1.0);
+        let mut camera = Camera::look_at(
+            target + towards_eye * distance,
+            target,
+            vfov_degrees,
+            width,
+            height,
+        )?;
+        // A few rounds of: project the box, re-aim at the middle of its image, and move in or
+        // out until it spans 90% of the tighter side.
+        for _ in 0..6 {
+            let m = camera.world_to_ndc();
+            let ndc: Vec<(f64, f64)> = corners
+                .iter()
+                .map(|p| {
+                    let v = [p.x, p.y, p.z, 1.0];
+                    let c: [f64; 4] =
+                        std::array::from_fn(|j| (0..4).map(|i| v[i] * m[4 * i + j] as f64).sum());
+                    (c[0] / c[3], c[1] / c[3])
+                })
+                .collect();
+            let span = |f: fn(&(f64, f64)) -> f64| {
+                ndc.iter()
+                    .map(f)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                        (a.min(v), b.max(v))
+                    })
+            };
+            let ((x0, x1), (y0, y1)) = (span(|p| p.0), span(|p| p.1));
+            let (cx, cy) = ((x0 + x1) * 0.5, (y0 + y1) * 0.5);
+            let aim = camera
+                .direction(cx * width as f64, cy * height as f64)
+                .as_dvec3();
+            target = camera.eye + aim * (target - camera.eye).length();
+            distance *= ((x1 - x0).max(y1 - y0) / 0.9).clamp(0.5, 2.0);
+            camera = Camera::look_at(
+                target + towards_eye * distance,
+                target,
+                vfov_degrees,
+                width,
+                height,
+            )?;
+        }
+        Ok(camera)
+    }
+
     /// Camera-space depth (along the viewing direction) of a renderer-frame point.
     pub fn depth(&self, p: Vec3) -> f32 {
         p.as_dvec3().dot(self.forward) as f32

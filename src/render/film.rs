@@ -17,6 +17,15 @@ pub struct Aovs {
     pub samples: bool,
 }
 
+/// An encoded OpenEXR file, and how many values were clamped to fit half floats.
+pub struct Exr {
+    pub bytes: Vec<u8>,
+    pub clamped: usize,
+}
+
+/// Largest finite half float.
+const HALF_MAX: f32 = 65504.0;
+
 /// Pixels of a window of the frame, row-major.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
@@ -28,7 +37,8 @@ pub struct Film {
     /// Size of the full frame (the display window).
     pub frame: (u32, u32),
     pub rgba: Vec<[f32; 4]>,
-    /// Camera-space depth; infinite where nothing was hit.
+    /// Camera-space depth of the pixel's surface (see `Radiance::distance`); +infinity exactly
+    /// where nothing covers the pixel (alpha 0, or only the sky).
     pub z: Vec<f32>,
     pub normal: Vec<Vec3>,
     pub albedo: Vec<Vec3>,
@@ -41,7 +51,7 @@ pub struct Film {
 
 impl Film {
     pub fn new(x0: u32, y0: u32, width: u32, height: u32, frame: (u32, u32)) -> Film {
-        let n = (width * height) as usize;
+        let n = width as usize * height as usize;
         Film {
             x0,
             y0,
@@ -68,13 +78,31 @@ impl Film {
         aovs: Aovs,
         world_to_camera: [f32; 16],
         world_to_ndc: [f32; 16],
-    ) -> std::result::Result<Vec<u8>, String> {
+    ) -> std::result::Result<Exr, String> {
+        // No image may carry a NaN or an infinity in colour or an AOV (a compositor's blur
+        // would spread it); half floats hold at most 65504, beyond which values are clamped
+        // and counted rather than turned into infinities.
+        let clamped = std::cell::Cell::new(0usize);
         let samples = |v: Vec<f32>| {
+            let v = v.into_iter().map(|x| if x.is_finite() { x } else { 0.0 });
             if half {
-                FlatSamples::F16(v.into_iter().map(f16::from_f32).collect())
+                FlatSamples::F16(
+                    v.map(|x| {
+                        if x.abs() > HALF_MAX {
+                            clamped.set(clamped.get() + 1);
+                        }
+                        f16::from_f32(x.clamp(-HALF_MAX, HALF_MAX))
+                    })
+                    .collect(),
+                )
             } else {
-                FlatSamples::F32(v)
+                FlatSamples::F32(v.collect())
             }
+        };
+        let finite = |v: &[f32]| -> Vec<f32> {
+            v.iter()
+                .map(|&x| if x.is_finite() { x } else { 0.0 })
+                .collect()
         };
         let column = |f: &dyn Fn(usize) -> f32| (0..self.rgba.len()).map(f).collect::<Vec<f32>>();
         let mut channels = vec![
@@ -83,7 +111,15 @@ impl Film {
             AnyChannel::new("B", samples(column(&|i| self.rgba[i][2]))),
             AnyChannel::new("A", samples(column(&|i| self.rgba[i][3]))),
             // Depth stays float: half would lose metres at a few kilometres.
-            AnyChannel::new("Z", FlatSamples::F32(self.z.clone())),
+            AnyChannel::new(
+                "Z",
+                FlatSamples::F32(
+                    self.z
+                        .iter()
+                        .map(|&z| if z.is_nan() { f32::INFINITY } else { z })
+                        .collect(),
+                ),
+            ),
         ];
         if aovs.normal {
             for (c, name) in ["normal.X", "normal.Y", "normal.Z"].iter().enumerate() {
@@ -107,17 +143,17 @@ impl Film {
         if aovs.species {
             channels.push(AnyChannel::new(
                 "species.id",
-                FlatSamples::F32(self.species.clone()),
+                FlatSamples::F32(finite(&self.species)),
             ));
         }
         if aovs.samples {
             channels.push(AnyChannel::new(
                 "samples.view",
-                FlatSamples::F32(self.samples.clone()),
+                FlatSamples::F32(finite(&self.samples)),
             ));
             channels.push(AnyChannel::new(
                 "samples.shadow",
-                FlatSamples::F32(self.shadow_rays.clone()),
+                FlatSamples::F32(finite(&self.shadow_rays)),
             ));
         }
         let attributes = LayerAttributes {
@@ -144,7 +180,10 @@ impl Film {
             .write()
             .to_buffered(std::io::Cursor::new(&mut bytes))
             .map_err(|e| e.to_string())?;
-        Ok(bytes)
+        Ok(Exr {
+            bytes,
+            clamped: clamped.get(),
+        })
     }
 
     /// An sRGB picture for people: the radiance composited over `sky` (linear), clipped.

@@ -67,13 +67,17 @@ impl Default for March {
 }
 
 /// The result of one ray: premultiplied radiance, what the sky sees through, and the
-/// arbitrary output values at the ray's "surface" (where its opacity first reaches one half).
+/// arbitrary output values at the ray's "surface": the first point where the opacity of what
+/// it crossed (trees and terrain, not the sky) reaches half of that opacity's final value. So
+/// every ray that meets anything has a finite surface, however faint (a compositor's depth of
+/// field or fog needs one wherever alpha is above 0), and a ray through a dense crown has it
+/// where the crown's opacity reaches a half.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Radiance {
     pub rgb: Vec3,
     /// Transmittance to the sky (0 where the terrain is hit).
     pub transmittance: f32,
-    /// Distance along the ray to the surface; infinite where there is none.
+    /// Distance along the ray to the surface; infinite where the ray met nothing.
     pub distance: f32,
     pub normal: Vec3,
     pub albedo: Vec3,
@@ -353,6 +357,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     let mut t = 0.0f32;
     let mut segment = 0u64;
     let sun = scene.sun;
+    SURFACES.with_borrow_mut(|s| s.clear());
     while let Some(start) = walk.advance(t, t_max) {
         t = start;
         let (end, ts) = segment_end(&walk, t, t_max, march.step, rng::hash3(key, segment, 0x72));
@@ -411,19 +416,36 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         );
         let source = shade(scene, albedo, normal, lit, -dir);
         out.rgb += source * share;
-        let before = transmittance;
         transmittance *= 1.0 - opacity;
-        if before > 0.5 && transmittance <= 0.5 {
-            out.distance = ts;
-            out.normal = normal.unwrap_or(Vec3::ZERO);
-            out.albedo = albedo;
-            out.species = densest.1 as f32 + 1.0;
-        }
+        SURFACES.with_borrow_mut(|s| {
+            s.push(Surface {
+                opacity: 1.0 - transmittance,
+                distance: ts,
+                normal: normal.unwrap_or(Vec3::ZERO),
+                albedo,
+                species: densest.1 as f32 + 1.0,
+            })
+        });
         if transmittance < march.cutoff {
             break;
         }
     }
     out.canopy = 1.0 - transmittance;
+    // The surface: where the trees' opacity reaches half of what the ray ends with (all of
+    // it when the terrain stops the ray), else the terrain below.
+    let half = if ground_hit.is_some() {
+        0.5
+    } else {
+        0.5 * out.canopy
+    };
+    SURFACES.with_borrow(|s| {
+        if let Some(surface) = s.iter().find(|s| s.opacity >= half && s.opacity > 0.0) {
+            out.distance = surface.distance;
+            out.normal = surface.normal;
+            out.albedo = surface.albedo;
+            out.species = surface.species;
+        }
+    });
     match ground_hit {
         Some((g, (tri, hit))) if transmittance >= march.cutoff => {
             let p = ray.dir * hit.t;
@@ -470,6 +492,21 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         }
     }
     out
+}
+
+/// A point a ray's surface may be at: the opacity reached after a segment, and what the
+/// AOVs report there.
+struct Surface {
+    opacity: f32,
+    distance: f32,
+    normal: Vec3,
+    albedo: Vec3,
+    species: f32,
+}
+
+thread_local! {
+    /// The current ray's candidate surfaces, kept per thread so rays allocate nothing.
+    static SURFACES: std::cell::RefCell<Vec<Surface>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// The light `light()` finds, for a sample with `share` of the pixel: always computed for a

@@ -9,6 +9,7 @@
 pub mod camera;
 pub mod film;
 pub mod integrate;
+pub mod load;
 pub mod mesh;
 pub mod sampler;
 pub mod scene;

@@ -3,6 +3,7 @@
 
 mod attributes;
 mod raster;
+pub mod survey;
 
 pub use attributes::{Attributes, TERRAIN_ATTRIBUTES, hillshade};
 pub use raster::Heightfield;
@@ -13,6 +14,7 @@ use glam::{DVec3, Vec3};
 
 use crate::geom::{Ray, TriangleBvh};
 use crate::import::{self, ImportError, Model};
+use crate::limits::Limits;
 
 /// A terrain surface with exact height queries.
 pub struct Terrain {
@@ -32,8 +34,8 @@ pub enum TerrainError {
 }
 
 impl Terrain {
-    pub fn load(path: &Path) -> Result<Terrain, TerrainError> {
-        let model = import::load_surface(path, "to place trees on")?;
+    pub fn load(path: &Path, limits: &Limits) -> Result<Terrain, TerrainError> {
+        let model = import::load_surface(path, "to place trees on", limits)?;
         Ok(Terrain::from_model(model))
     }
 

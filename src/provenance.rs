@@ -1,0 +1,155 @@
+//! Where a file came from. Our files record the files they were made from, each by path
+//! (relative to the recording file) and SHA-256, so a later stage can refuse inputs that
+//! changed since: a forest whose terrain was edited, a texture whose model was re-exported.
+//! This module records sources and reads files verified against their record.
+
+use std::path::{Path, PathBuf};
+
+use sha2::{Digest, Sha256};
+
+use crate::formats::hex;
+use crate::import::Source;
+use crate::input::{self, InputError};
+use crate::output::relative_path;
+use crate::volume::SourceFile;
+
+pub fn sha256(bytes: &[u8]) -> [u8; 32] {
+    Sha256::digest(bytes).into()
+}
+
+/// `path`'s record, relative to directory `base` (the directory of the file recording it).
+pub fn source(path: &Path, bytes: &[u8], base: &Path) -> SourceFile {
+    SourceFile {
+        path: relative_path(path, base),
+        sha256: sha256(bytes),
+        bytes: bytes.len() as u64,
+    }
+}
+
+/// The records of files an import read, relative to `base`, and the SHA-256 of their
+/// concatenated digests (`.texel`'s `inputs_sha256`).
+pub fn record(sources: &[Source], base: &Path) -> (Vec<SourceFile>, [u8; 32]) {
+    let mut all = Sha256::new();
+    let records = sources
+        .iter()
+        .map(|s| {
+            all.update(s.sha256);
+            SourceFile {
+                path: relative_path(&s.path, base),
+                sha256: s.sha256,
+                bytes: s.bytes,
+            }
+        })
+        .collect();
+    (records, all.finalize().into())
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ProvenanceError {
+    #[error(transparent)]
+    Unreadable(#[from] InputError),
+    #[error("{path} changed since {since} (sha256 {recorded}... recorded, {now}... now)")]
+    Changed {
+        path: PathBuf,
+        /// When it was recorded: "the forest was placed", "it was baked".
+        since: &'static str,
+        recorded: String,
+        now: String,
+    },
+}
+
+/// What a file on disk says about its record.
+pub enum Check {
+    Same,
+    Changed(ProvenanceError),
+    Unreadable(ProvenanceError),
+}
+
+/// The bytes of `path` (at most `limit`), refused if their SHA-256 is not `recorded` (when
+/// `since`).
+pub fn read_verified(
+    path: &Path,
+    recorded: &[u8; 32],
+    since: &'static str,
+    limit: u64,
+) -> Result<Vec<u8>, ProvenanceError> {
+    let bytes = input::read_bounded(path, limit, "recorded source")?;
+    verify(path, &bytes, recorded, since)?;
+    Ok(bytes)
+}
+
+/// Refuses `bytes`, read from `path`, if their SHA-256 is not `recorded` (when `since`).
+pub fn verify(
+    path: &Path,
+    bytes: &[u8],
+    recorded: &[u8; 32],
+    since: &'static str,
+) -> Result<(), ProvenanceError> {
+    let now = sha256(bytes);
+    if &now != recorded {
+        return Err(ProvenanceError::Changed {
+            path: path.to_path_buf(),
+            since,
+            recorded: hex(recorded)[..12].to_string(),
+            now: hex(&now)[..12].to_string(),
+        });
+    }
+    Ok(())
+}
+
+/// Every recorded source, found relative to `base`, checked against its record (made when
+/// `since`); the paths read, in order.
+pub fn verify_all(
+    records: &[SourceFile],
+    base: &Path,
+    since: &'static str,
+    limit: u64,
+) -> Result<Vec<PathBuf>, ProvenanceError> {
+    records
+        .iter()
+        .map(|r| {
+            let path = base.join(&r.path);
+            read_verified(&path, &r.sha256, since, limit).map(|_| path)
+        })
+        .collect()
+}
+
+/// [`read_verified`]'s verdict without failing: for tools that describe files and only warn.
+pub fn check(path: &Path, recorded: &[u8; 32], since: &'static str, limit: u64) -> Check {
+    match read_verified(path, recorded, since, limit) {
+        Ok(_) => Check::Same,
+        Err(e @ ProvenanceError::Changed { .. }) => Check::Changed(e),
+        Err(e) => Check::Unreadable(e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_changed_file_is_refused_and_an_unchanged_one_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.bin");
+        std::fs::write(&p, b"terrain").unwrap();
+        let recorded = sha256(b"terrain");
+        let since = "the forest was placed";
+        assert_eq!(
+            read_verified(&p, &recorded, since, 100).unwrap(),
+            b"terrain"
+        );
+        std::fs::write(&p, b"terrain, edited").unwrap();
+        let e = read_verified(&p, &recorded, since, 100)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("changed since the forest was placed"), "{e}");
+        assert!(matches!(
+            check(&p, &recorded, since, 100),
+            Check::Changed(_)
+        ));
+        assert!(matches!(
+            check(&dir.path().join("gone"), &recorded, since, 100),
+            Check::Unreadable(_)
+        ));
+    }
+}

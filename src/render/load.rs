@@ -1,0 +1,242 @@
+//! Loading what a render needs from disk: the forest, every texture its species name (the
+//! leafless one in winter), the terrain, and for the mesh method the tree models the textures
+//! were baked from. Every file is read within limits and checked against the hash its
+//! referrer recorded, so a stale input is refused before rendering starts; the paths read are
+//! returned for depfiles.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::{DVec3, Vec3};
+
+use super::mesh::TreeMesh;
+use super::{Look, Placed};
+use crate::bake;
+use crate::formats::{container, instances, texel};
+use crate::import::{self, Model};
+use crate::input::MAX_GLTF;
+use crate::limits::Limits;
+use crate::provenance::{self, ProvenanceError};
+use crate::volume::Texel;
+
+/// What to load.
+pub struct SceneRequest<'a> {
+    /// The `.instances` file; the files it names are found relative to it.
+    pub forest: &'a Path,
+    /// A terrain to use instead of the recorded one (not checked against the record).
+    pub terrain: Option<&'a Path>,
+    /// Day of the year: picks each species' foliage colour, leaf fraction and texture.
+    pub day: f64,
+    /// Also load the tree models (for `Method::Mesh`).
+    pub meshes: bool,
+    pub limits: Limits,
+}
+
+/// Everything a render reads, loaded and checked.
+pub struct LoadedScene {
+    pub forest: instances::Forest,
+    pub texels: Vec<Texel>,
+    /// One per species, in the forest's species order.
+    pub looks: Vec<Look>,
+    pub placed: Vec<Placed>,
+    pub terrain: Model,
+    /// One per texel where asked for.
+    pub meshes: Option<Vec<TreeMesh>>,
+    /// Every file read, the forest first.
+    pub dependencies: Vec<PathBuf>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// A file could not be read or decoded, or changed since it was recorded.
+    #[error("{file}")]
+    File {
+        file: PathBuf,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The files are readable but do not fit together.
+    #[error("{file}: {message}")]
+    Mismatch { file: PathBuf, message: String },
+}
+
+fn file_error(file: &Path, e: impl std::error::Error + Send + Sync + 'static) -> LoadError {
+    LoadError::File {
+        file: file.to_path_buf(),
+        source: Box::new(e),
+    }
+}
+
+/// When the forest recorded the files it names.
+const PLACED: &str = "the forest was placed";
+
+/// An error about a file another file named.
+#[derive(Debug, thiserror::Error)]
+#[error("{}", .0.display())]
+struct Named(PathBuf, #[source] Box<dyn std::error::Error + Send + Sync>);
+
+/// A recorded source that changed, with what to do about it.
+#[derive(Debug, thiserror::Error)]
+#[error("{change}; {advice}")]
+struct Stale {
+    change: ProvenanceError,
+    advice: &'static str,
+}
+
+fn stale(file: &Path, change: ProvenanceError, advice: &'static str) -> LoadError {
+    file_error(file, Stale { change, advice })
+}
+
+pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
+    let path = request.forest;
+    let bytes = container::read_file(path).map_err(|e| file_error(path, e))?;
+    let forest =
+        instances::decode_with(&bytes, &request.limits).map_err(|e| file_error(path, e))?;
+    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    let mut dependencies = vec![path.to_path_buf()];
+
+    // The terrain as recorded, every file of it (the glTF, its buffers and images) unchanged.
+    let terrain_path = match request.terrain {
+        Some(t) => t.to_path_buf(),
+        None => {
+            let files = provenance::verify_all(&forest.info.terrain, &dir, PLACED, MAX_GLTF)
+                .map_err(|e| stale(path, e, "re-run texel place"))?;
+            files[0].clone()
+        }
+    };
+    let terrain = import::load_surface(&terrain_path, "to render as a terrain", &request.limits)
+        .map_err(|e| file_error(&terrain_path, e))?;
+    dependencies.extend(terrain.sources.iter().map(|s| s.path.clone()));
+
+    let mut texels: Vec<Texel> = Vec::new();
+    let mut texel_paths: Vec<PathBuf> = Vec::new();
+    let mut loaded: HashMap<PathBuf, usize> = HashMap::new();
+    let mut load_texel = |rel: &str, sha: &[u8; 32]| -> Result<usize, LoadError> {
+        let file = dir.join(rel);
+        if let Some(&i) = loaded.get(&file) {
+            return Ok(i);
+        }
+        // Errors name the forest that refers to the texture, then the texture.
+        let bytes = container::read_file(&file).map_err(|e| file_error(path, e))?;
+        provenance::verify(&file, &bytes, sha, PLACED)
+            .map_err(|e| stale(path, e, "re-run texel place"))?;
+        let t = texel::decode_with(&bytes, &request.limits)
+            .map_err(|e| file_error(path, Named(file.clone(), Box::new(e))))?;
+        texels.push(t);
+        texel_paths.push(file.clone());
+        loaded.insert(file.clone(), texels.len() - 1);
+        dependencies.push(file);
+        Ok(texels.len() - 1)
+    };
+    let mut looks = Vec::new();
+    for s in &forest.info.species {
+        let leaf_fraction = s.seasons.leaf_fraction(request.day) as f32;
+        let albedo = s.seasons.albedo(request.day).map(|c| c as f32);
+        // A bare deciduous tree draws its leafless texture where it has one.
+        let (texel, foliage) = match (&s.leafless_texel, &s.leafless_sha256) {
+            (Some(rel), Some(sha)) if leaf_fraction <= 0.0 => (load_texel(rel, sha)?, 0.0),
+            _ => (load_texel(&s.texel, &s.texel_sha256)?, leaf_fraction),
+        };
+        looks.push(Look {
+            texel,
+            foliage,
+            foliage_albedo: Vec3::from(albedo),
+        });
+    }
+    // Heights were scaled for the texel's model: a rebaked texel must still match.
+    for (s, look) in forest.info.species.iter().zip(&looks) {
+        let info = &texels[look.texel].info;
+        let height = info.model_max[1] - info.model_min[1];
+        if look.foliage > 0.0 && (height - s.model_height).abs() > 1e-6 * s.model_height.max(1.0) {
+            return Err(LoadError::Mismatch {
+                file: path.to_path_buf(),
+                message: format!(
+                    "species {:?}: the texel's model is {height} tall, the forest was placed for {}",
+                    s.name, s.model_height
+                ),
+            });
+        }
+    }
+    let meshes = if request.meshes {
+        Some(tree_meshes(
+            &texels,
+            &texel_paths,
+            &request.limits,
+            &mut dependencies,
+        )?)
+    } else {
+        None
+    };
+    let placed = forest
+        .instances
+        .iter()
+        .map(|p| Placed {
+            look: p.species as u16,
+            position: DVec3::from(p.position),
+            rotation: p.rotation,
+            scale: p.scale,
+        })
+        .collect();
+    Ok(LoadedScene {
+        forest,
+        texels,
+        looks,
+        placed,
+        terrain,
+        meshes,
+        dependencies,
+    })
+}
+
+/// The polygon model each texel was baked from (its first recorded source, relative to the
+/// texel), refused if any of its files changed since the bake, with its foliage decided as the
+/// bake decided it.
+fn tree_meshes(
+    texels: &[Texel],
+    paths: &[PathBuf],
+    limits: &Limits,
+    dependencies: &mut Vec<PathBuf>,
+) -> Result<Vec<TreeMesh>, LoadError> {
+    let mut meshes = Vec::new();
+    for (t, path) in texels.iter().zip(paths) {
+        let dir = path.parent().unwrap_or(Path::new(""));
+        if t.info.sources.is_empty() {
+            return Err(LoadError::Mismatch {
+                file: path.clone(),
+                message: format!(
+                    "records no source model (made by {:?}); --method mesh needs the glTF it was baked from",
+                    t.info.generator
+                ),
+            });
+        }
+        let files = provenance::verify_all(&t.info.sources, dir, "it was baked", MAX_GLTF)
+            .map_err(|e| stale(path, e, "re-run texel bake"))?;
+        let m = import::load_surface(&files[0], "to draw as a tree", limits)
+            .map_err(|e| file_error(&files[0], e))?;
+        let foliage = bake::foliage_triangles(&m.mesh, &t.info.parameters)
+            .map_err(|e| file_error(path, e))?;
+        dependencies.extend(files);
+        meshes.push(TreeMesh::new(m.mesh, foliage));
+    }
+    Ok(meshes)
+}
+
+impl LoadedScene {
+    /// The box to frame by default: the forest's region, from the lowest tree base (or the
+    /// terrain) to the highest crown; the whole terrain when the forest is empty.
+    pub fn forest_bounds(&self) -> (DVec3, DVec3) {
+        let info = &self.forest.info;
+        let (t_lo, t_hi) = (DVec3::from(info.terrain_min), DVec3::from(info.terrain_max));
+        if self.forest.instances.is_empty() {
+            return (t_lo, t_hi);
+        }
+        let (mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in &self.forest.instances {
+            let top = p.scale as f64 * info.species[p.species as usize].model_height;
+            y0 = y0.min(p.position[1]);
+            y1 = y1.max(p.position[1] + top);
+        }
+        let r = info.region;
+        (DVec3::new(r[0], y0, r[1]), DVec3::new(r[2], y1, r[3]))
+    }
+}
