@@ -53,11 +53,28 @@ impl Rgba {
     /// Reads the first layer's R, G, B and A, refusing an image whose header claims more pixels
     /// than `limits` allow before any pixel is read.
     pub fn read(path: &Path, limits: &Limits) -> Result<Rgba, CompareError> {
+        let file = std::fs::File::open(path).map_err(|e| CompareError::Read {
+            file: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Rgba::from_reader(std::io::BufReader::new(file), path, limits)
+    }
+
+    /// [`Rgba::read`] from the bytes of an EXR file (`path` names it in errors).
+    pub fn from_bytes(bytes: &[u8], path: &Path, limits: &Limits) -> Result<Rgba, CompareError> {
+        Rgba::from_reader(std::io::Cursor::new(bytes), path, limits)
+    }
+
+    fn from_reader(
+        mut reader: impl std::io::Read + std::io::Seek,
+        path: &Path,
+        limits: &Limits,
+    ) -> Result<Rgba, CompareError> {
         let read_error = |message: String| CompareError::Read {
             file: path.to_path_buf(),
             message,
         };
-        let meta = exr::meta::MetaData::read_from_file(path, false)
+        let meta = exr::meta::MetaData::read_from_unbuffered(&mut reader, false)
             .map_err(|e| read_error(e.to_string()))?;
         let pixels: u64 = meta
             .headers
@@ -67,7 +84,17 @@ impl Rgba {
         limits
             .check_pixels(pixels, "the pixels its header claims")
             .map_err(|e| read_error(e.to_string()))?;
-        let image = exr::prelude::read_all_flat_layers_from_file(path)
+        reader
+            .seek(std::io::SeekFrom::Start(0))
+            .map_err(|e| read_error(e.to_string()))?;
+        use exr::prelude::{ReadChannels, ReadLayers};
+        let image = exr::image::read::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_buffered(reader)
             .map_err(|e| read_error(e.to_string()))?;
         let layer = image
             .layer_data

@@ -89,17 +89,29 @@ pub struct Outputs {
     targets: Vec<Target>,
 }
 
-/// A path made absolute, with symbolic links resolved as far as the path exists: two names of
-/// one file give the same key.
+/// A path made absolute, with symbolic links resolved as far as the path exists and `.` and
+/// `..` resolved after that: two names of one file give the same key.
 fn identity(path: &Path) -> PathBuf {
     if let Ok(p) = std::fs::canonicalize(path) {
         return p;
     }
     let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    match (absolute.parent(), absolute.file_name()) {
-        (Some(dir), Some(name)) => identity(dir).join(name),
-        _ => absolute,
+    let mut key = PathBuf::new();
+    for part in absolute.components() {
+        match part {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                key.pop();
+            }
+            other => {
+                key.push(other);
+                if let Ok(real) = std::fs::canonicalize(&key) {
+                    key = real;
+                }
+            }
+        }
     }
+    key
 }
 
 /// The directory `path` is in ("." for a bare name).

@@ -456,6 +456,22 @@ fn mask_marked_bark_stays_wood_and_flags_override_both_ways() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["materials"][0]["reason"], "alpha_cuts");
     assert_eq!(v["format"], "texel 1.1");
+    // Albedo statistics are over the cells with density of their part, and say so; the raw
+    // size is the file's own R, not a figure recomputed from a channel list.
+    let albedo = v["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["name"] == "albedo_foliage.g")
+        .unwrap();
+    assert_eq!(albedo["over"], "foliage");
+    let bytes = std::fs::read(dir.path().join("t.texel")).unwrap();
+    let raw = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
+    assert_eq!(v["raw_bytes"], raw);
+    assert!(
+        text.contains("over cells") && text.contains("with foliage"),
+        "{text}"
+    );
 }
 
 #[test]

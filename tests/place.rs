@@ -424,3 +424,150 @@ fn the_real_terrain_takes_a_forest() {
     );
     assert_spacing(&f);
 }
+
+/// A copy of the fixture species file with `edit` applied to every species.
+fn species_variant(dir: &Path, name: &str, edit: impl Fn(&mut serde_json::Value)) {
+    let mut v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("species.json")).unwrap()).unwrap();
+    for s in v["species"].as_array_mut().unwrap() {
+        edit(s);
+    }
+    std::fs::write(dir.join(name), v.to_string()).unwrap();
+}
+
+#[test]
+fn an_empty_forest_says_why_and_inspect_says_no_trees() {
+    let dir = forest_dir();
+    // Cliffs only: nothing on the mountain is that steep.
+    species_variant(dir.path(), "cliffs.json", |s| {
+        s["habitat"] = serde_json::json!({ "slope": { "min": 85, "max": 90 } })
+    });
+    let t = mountain();
+    let o = run(
+        &[
+            "place",
+            t.to_str().unwrap(),
+            "--species",
+            "cliffs.json",
+            "-o",
+            "empty.instances",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    for needle in [
+        "the forest is empty",
+        "raster        7.81 m cells",
+        "slope",
+        "95%",
+        "suits 0.0% of the ground; asks for slope 85..90",
+    ] {
+        assert!(err.contains(needle), "{needle:?} not in {err}");
+    }
+    let o = run(&["inspect", "empty.instances"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        text.contains("no trees") && text.contains("fewer than two trees"),
+        "{text}"
+    );
+    assert!(!text.contains("inf"), "{text}");
+    let o = run(&["inspect", "empty.instances", "--json"], dir.path());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        v["bytes_per_tree"].is_null() && v["min_distance"].is_null(),
+        "{v}"
+    );
+}
+
+#[test]
+fn nothing_grows_below_the_sea_or_outside_a_species_elevation_band() {
+    let dir = forest_dir();
+    let t = mountain();
+    let o = place_on_mountain(dir.path(), &["--sea-level", "300"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let f =
+        instances::decode(&std::fs::read(dir.path().join("forest.instances")).unwrap()).unwrap();
+    assert!(f.instances.len() > 1000);
+    let lowest = f
+        .instances
+        .iter()
+        .map(|p| p.position[1])
+        .fold(f64::INFINITY, f64::min);
+    assert!(lowest >= 300.0 - 0.005, "a tree stands at {lowest} m");
+
+    // An elevation band holds at each tree's exact ground, not only on the raster.
+    species_variant(dir.path(), "high.json", |s| {
+        s["habitat"]["elevation"] = serde_json::json!({ "min": 350, "max": 10000 })
+    });
+    let o = run(
+        &[
+            "place",
+            t.to_str().unwrap(),
+            "--species",
+            "high.json",
+            "-o",
+            "high.instances",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let f = instances::decode(&std::fs::read(dir.path().join("high.instances")).unwrap()).unwrap();
+    assert!(!f.instances.is_empty());
+    assert!(f.instances.iter().all(|p| p.position[1] >= 350.0 - 0.005));
+}
+
+#[test]
+fn inspect_of_a_terrain_shows_what_a_species_file_needs() {
+    let dir = forest_dir();
+    let t = mountain();
+    let t = t.to_str().unwrap();
+    let o = run(&["inspect", t], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    for needle in [
+        "32768 triangles",
+        "7.81 m cells",
+        "elevation",
+        "slope",
+        "aspect",
+        "topographic_position",
+        "wetness",
+        "50%",
+        "sha256",
+    ] {
+        assert!(text.contains(needle), "{needle:?} not in {text}");
+    }
+    let o = run(
+        &[
+            "inspect",
+            t,
+            "--species",
+            "species.json",
+            "--json",
+            "--cell",
+            "20",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["survey"]["cell"], 20.0);
+    let fits = v["survey"]["species"].as_array().unwrap();
+    assert_eq!(fits.len(), 4);
+    assert!(
+        fits.iter()
+            .all(|f| f["suitable_share"].as_f64().unwrap() > 0.0),
+        "{v}"
+    );
+    // Elevation percentiles bracket the fixture mountain's heights.
+    let elevation = &v["survey"]["attributes"][0];
+    assert!(
+        elevation["min"].as_f64().unwrap() >= 169.0 && elevation["max"].as_f64().unwrap() <= 468.0
+    );
+    let o = run(&["inspect", t, "--map", "-o", "attributes.png"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(dir.path().join("attributes.png")).unwrap();
+    assert!(img.width() > 3 * 128 && img.height() > 2 * 128);
+}

@@ -415,3 +415,86 @@ fn missing_or_stale_inputs_are_refused_before_rendering() {
             && !dir.path().join("x.exr").exists()
     );
 }
+
+#[test]
+fn the_default_camera_frames_the_forest_not_the_whole_terrain() {
+    // The forest covers 240 m of the 1 km mountain.
+    let dir = small_forest();
+    let o = run(
+        &[
+            "render",
+            "forest.instances",
+            "-o",
+            "f.exr",
+            "--width",
+            "64",
+            "--height",
+            "36",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let image = exr::prelude::read_all_flat_layers_from_file(dir.path().join("f.exr")).unwrap();
+    let m = image.layer_data[0]
+        .attributes
+        .world_to_normalized_device
+        .unwrap();
+    let ndc = |x: f64, y: f64, z: f64| {
+        let v = [x, y, z, 1.0];
+        let c: [f64; 4] = std::array::from_fn(|j| (0..4).map(|i| v[i] * m[4 * i + j] as f64).sum());
+        (c[0] / c[3], c[1] / c[3])
+    };
+    let corners: Vec<(f64, f64)> = [
+        (-120.0, -120.0),
+        (120.0, -120.0),
+        (-120.0, 120.0),
+        (120.0, 120.0),
+    ]
+    .iter()
+    .map(|&(x, z)| ndc(x, 380.0, z))
+    .collect();
+    let (x0, x1) = corners
+        .iter()
+        .fold((f64::MAX, f64::MIN), |a, c| (a.0.min(c.0), a.1.max(c.0)));
+    assert!(
+        x0 > -0.05 && x1 < 1.05,
+        "the region is in the frame: {corners:?}"
+    );
+    assert!(
+        x1 - x0 > 0.5,
+        "and fills much of it, not a speck: {corners:?}"
+    );
+}
+
+#[test]
+fn an_eye_under_the_terrain_is_worth_a_warning() {
+    let dir = small_forest();
+    let o = render_at(dir.path(), "--eye=0,100,0", "50,100,0");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("texel: warning:") && err.contains("below the terrain"),
+        "{err}"
+    );
+    let o = render_at(dir.path(), "--eye=0,900,0", "50,400,0");
+    assert!(!stderr(&o).contains("below the terrain"), "{}", stderr(&o));
+}
+
+fn render_at(dir: &Path, eye: &str, target: &str) -> std::process::Output {
+    run(
+        &[
+            "render",
+            "forest.instances",
+            "-o",
+            "e.exr",
+            eye,
+            "--target",
+            target,
+            "--width",
+            "16",
+            "--height",
+            "8",
+        ],
+        dir,
+    )
+}

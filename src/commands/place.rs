@@ -200,16 +200,11 @@ fn warn_if_lopsided(forest: &place::Forest, species: &SpeciesFile) {
     };
     let region = forest.region;
     let raster = &forest.raster;
-    let inside = |k: usize| {
-        let x = raster.x0 + ((k % raster.nx) as f64 + 0.5) * raster.cell;
-        let z = raster.z0 + ((k / raster.nx) as f64 + 0.5) * raster.cell;
-        (region[0]..=region[2]).contains(&x) && (region[1]..=region[3]).contains(&z)
-    };
     let s = survey::survey(
         raster,
         &forest.attributes,
         species.analysis.tpi_radius,
-        Some(&inside),
+        region,
         Some((species, &forest.suitability)),
     );
     super::warn(&format!(

@@ -42,7 +42,10 @@ const ZSTD_LEVEL: i32 = 9;
 
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum ContainerError {
-    #[error("not a {format} file (wrong magic bytes{hint})")]
+    #[error(
+        "not {} {format} file (wrong magic bytes{hint})",
+        if format.starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" }
+    )]
     Magic { format: &'static str, hint: String },
     #[error("{}", version_message(format, *major, *minor, *supported))]
     Version {
@@ -127,6 +130,23 @@ fn u32_at(b: &[u8], at: usize) -> u32 {
 }
 fn u64_at(b: &[u8], at: usize) -> u64 {
     u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+}
+
+/// A header that does not decode, said in words (bincode's own texts include debug names).
+pub fn decode_error(e: &bincode::error::DecodeError) -> String {
+    use bincode::error::DecodeError as E;
+    match e {
+        E::LimitExceeded | E::UnexpectedEnd { .. } => {
+            "a length or field runs past the end of the header".into()
+        }
+        E::Utf8 { .. } => "a string is not valid UTF-8".into(),
+        E::UnexpectedVariant { found, .. } => {
+            format!("an enum or option tag {found} is not one the format defines")
+        }
+        E::InvalidBooleanValue(v) => format!("boolean byte {v} is neither 0 nor 1"),
+        E::OutsideUsizeRange(n) => format!("a length of {n} cannot be held"),
+        other => format!("it does not decode ({other})"),
+    }
 }
 
 /// The most bytes a zstd frame of `raw` bytes may take (above zstd's own bound,

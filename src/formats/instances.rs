@@ -266,7 +266,7 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Forest, InstancesErr
     let bad = |m: String| InstancesError::Header(m);
     let (header, used): (Header, usize) =
         bincode::decode_from_slice(opened.header, header_config())
-            .map_err(|e| bad(e.to_string()))?;
+            .map_err(|e| bad(container::decode_error(&e)))?;
     // Header fields a newer minor version appended are skipped (formats/container.md).
     let is_newer = opened.minor > MINOR;
     if used != opened.header.len() && !is_newer {

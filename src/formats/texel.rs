@@ -285,7 +285,8 @@ pub(crate) fn forge(texel: &Texel, edit: impl FnOnce(&mut Parts)) -> Vec<u8> {
 /// every later minor version this reader knows. Bytes after those are refused, unless the file
 /// is of a newer minor version, whose appended fields this reader skips.
 fn decode_header(bytes: &[u8], minor: u16) -> Result<(Header, HeaderV1_1), TexelError> {
-    let decode_error = |e: bincode::error::DecodeError| TexelError::Header(e.to_string());
+    let decode_error =
+        |e: bincode::error::DecodeError| TexelError::Header(container::decode_error(&e));
     let (header, used): (Header, usize) =
         bincode::decode_from_slice(bytes, header_config()).map_err(decode_error)?;
     let mut rest = &bytes[used..];
@@ -713,6 +714,26 @@ pub(crate) mod tests {
         bytes[at..at + 8].copy_from_slice(&0.75f64.to_le_bytes());
         let e = decode(&recrc(bytes)).unwrap_err().to_string();
         assert!(e.contains("level 1 is not half of level 0"), "{e}");
+    }
+
+    /// The header is judged before the payload is inflated: a payload that would not even
+    /// decompress is never reached when the header asks for more than the limits allow.
+    #[test]
+    fn the_header_is_checked_before_the_payload_is_decompressed() {
+        let bytes = encode(&sample_texel(5)).unwrap();
+        let p = container::preamble(&bytes).unwrap();
+        let mut damaged = bytes.clone();
+        let payload = container::PREAMBLE + p.header_len as usize;
+        damaged[payload + 8] ^= 0xff;
+        let damaged = recrc(damaged);
+        let small = Limits {
+            cells: 10,
+            ..Limits::default()
+        };
+        let e = decode_with(&damaged, &small).unwrap_err();
+        assert!(matches!(e, TexelError::Limit(_)), "{e}");
+        let e = decode(&damaged).unwrap_err().to_string();
+        assert!(e.contains("payload"), "{e}");
     }
 
     #[test]

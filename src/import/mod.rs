@@ -237,7 +237,19 @@ pub fn load(path: &Path) -> Result<Model, ImportError> {
 
 /// [`load`] within `limits` (triangles once every node is instanced).
 pub fn load_with(path: &Path, limits: &Limits) -> Result<Model, ImportError> {
-    let mut doc = document::Document::open(path, limits)?;
+    let doc = document::Document::open(path, limits)?;
+    model_of(doc)
+}
+
+/// [`load_with`] from the bytes of a `.gltf` or `.glb` file; `path` names it in errors and
+/// anchors the relative URIs of its external buffers and images.
+pub fn load_bytes(path: &Path, bytes: Vec<u8>, limits: &Limits) -> Result<Model, ImportError> {
+    let mut doc = document::Document::parse(path, bytes)?;
+    doc.limits = *limits;
+    model_of(doc)
+}
+
+fn model_of(mut doc: document::Document) -> Result<Model, ImportError> {
     let (mesh, cameras, suns) = scene::flatten(&mut doc)?;
     Ok(Model {
         mesh,

@@ -52,16 +52,11 @@ pub fn summarize(
     };
     let habitat = place::habitat(terrain, file, settings)?;
     let (raster, region) = (&habitat.raster, habitat.region);
-    let inside = |k: usize| {
-        let x = raster.x0 + ((k % raster.nx) as f64 + 0.5) * raster.cell;
-        let z = raster.z0 + ((k / raster.nx) as f64 + 0.5) * raster.cell;
-        (region[0]..=region[2]).contains(&x) && (region[1]..=region[3]).contains(&z)
-    };
     let survey = survey::survey(
         raster,
         &habitat.attributes,
         file.analysis.tpi_radius,
-        Some(&inside),
+        region,
         species.map(|f| (f, habitat.suitability.as_slice())),
     );
     let summary = TerrainSummary {

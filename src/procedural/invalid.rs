@@ -142,6 +142,17 @@ fn container_files(valid: &[u8], files: &mut Vec<InvalidFile>) {
         patched(16, &((2u64 << 30) + 1).to_le_bytes()),
         "payload length 2147483649 exceeds",
     );
+    add(
+        "stored-length-absurd",
+        patched(24, &(u64::MAX / 2).to_le_bytes()),
+        "exceeds what zstd makes of",
+    );
+    // The header's first field, the generator's length, claims a terabyte.
+    add(
+        "header-length-field-absurd",
+        patched(PREAMBLE, &(1u64 << 40).to_le_bytes()),
+        "corrupt header: a length or field runs past the end of the header",
+    );
     let mut crc = valid.to_vec();
     let last = crc.len() - 5;
     crc[last] ^= 0x40;

@@ -38,10 +38,14 @@ pub struct SpeciesFit {
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Survey {
-    /// Raster cell (m), and the raster's extent: x0, z0, x1, z1 (m).
+    /// Raster cell (m), the region surveyed and the raster's extent: x0, z0, x1, z1 (m). The
+    /// raster reaches the topographic-position radius beyond the region, where there is
+    /// terrain, so that attributes at the region's edge see their whole neighbourhood.
     pub cell: f64,
+    pub region: [f64; 4],
     pub extent: [f64; 4],
-    /// Cells with terrain beneath, of all cells.
+    /// Raster cells in the region surveyed, and those of them with terrain beneath (the
+    /// raster itself reaches the topographic-position radius beyond the region).
     pub cells: usize,
     pub cells_with_terrain: usize,
     pub tpi_radius: f64,
@@ -127,18 +131,25 @@ pub fn asks(h: &Habitat) -> Vec<String> {
     out
 }
 
-/// Surveys `raster` and its `attributes` over the cells `inside` marks (all cells where it is
-/// `None`); with `species`, how much of it suits each (suitability per cell as `place` computes
-/// it, `suitability[s][cell]`).
+/// Surveys `raster` and its `attributes` over the cells whose centres lie in `region`; with
+/// `species`, how much of it suits each (suitability per cell as `place` computes it,
+/// `suitability[s][cell]`).
 pub fn survey(
     raster: &Heightfield,
     attributes: &Attributes,
     tpi_radius: f64,
-    inside: Option<&dyn Fn(usize) -> bool>,
+    region: [f64; 4],
     species: Option<(&SpeciesFile, &[Vec<f32>])>,
 ) -> Survey {
-    let keep = |k: usize| inside.is_none_or(|f| f(k)) && raster.height[k].is_finite();
-    let cells: Vec<usize> = (0..raster.height.len()).filter(|&k| keep(k)).collect();
+    let inside = |k: usize| {
+        let x = raster.x0 + ((k % raster.nx) as f64 + 0.5) * raster.cell;
+        let z = raster.z0 + ((k / raster.nx) as f64 + 0.5) * raster.cell;
+        (region[0]..=region[2]).contains(&x) && (region[1]..=region[3]).contains(&z)
+    };
+    let in_region = (0..raster.height.len()).filter(|&k| inside(k)).count();
+    let cells: Vec<usize> = (0..raster.height.len())
+        .filter(|&k| inside(k) && raster.height[k].is_finite())
+        .collect();
     let attributes = (0..5)
         .map(|a| {
             let field = attributes.get(raster, a);
@@ -167,13 +178,14 @@ pub fn survey(
         .unwrap_or_default();
     Survey {
         cell: raster.cell,
+        region,
         extent: [
             raster.x0,
             raster.z0,
             raster.x0 + raster.nx as f64 * raster.cell,
             raster.z0 + raster.nz as f64 * raster.cell,
         ],
-        cells: raster.height.len(),
+        cells: in_region,
         cells_with_terrain: cells.len(),
         tpi_radius,
         attributes,
@@ -184,19 +196,21 @@ pub fn survey(
 /// The survey as text: a table of percentiles, then each species' share and terms.
 pub fn to_text(s: &Survey) -> String {
     let mut o = String::new();
-    let e = s.extent;
+    let r = s.region;
     let _ = writeln!(
         o,
-        "raster        {:.2} m cells over x {:.1} to {:.1}, z {:.1} to {:.1} ({:.2} km x {:.2} km); {} of {} cells have terrain",
-        s.cell,
-        e[0],
-        e[2],
-        e[1],
-        e[3],
-        (e[2] - e[0]) / 1e3,
-        (e[3] - e[1]) / 1e3,
-        s.cells_with_terrain,
-        s.cells
+        "region        x {:.1} to {:.1}, z {:.1} to {:.1} m ({:.2} km x {:.2} km)",
+        r[0],
+        r[2],
+        r[1],
+        r[3],
+        (r[2] - r[0]) / 1e3,
+        (r[3] - r[1]) / 1e3,
+    );
+    let _ = writeln!(
+        o,
+        "raster        {:.2} m cells; {} of the region's {} cells have terrain",
+        s.cell, s.cells_with_terrain, s.cells
     );
     let _ = writeln!(
         o,
