@@ -48,7 +48,7 @@ pub fn record(sources: &[Source], base: &Path) -> (Vec<SourceFile>, [u8; 32]) {
 pub enum ProvenanceError {
     #[error(transparent)]
     Unreadable(#[from] InputError),
-    #[error("{path} changed since {since} (sha256 {recorded}... recorded, {now}... now)")]
+    #[error("{path} changed since {since} (sha256 {recorded}... recorded, {now} now)")]
     Changed {
         path: PathBuf,
         /// When it was recorded: "the forest was placed", "it was baked".
@@ -91,7 +91,7 @@ pub fn verify(
             path: path.to_path_buf(),
             since,
             recorded: hex(recorded)[..12].to_string(),
-            now: hex(&now)[..12].to_string(),
+            now: format!("{}...", &hex(&now)[..12]),
         });
     }
     Ok(())
@@ -109,7 +109,19 @@ pub fn verify_all(
         .iter()
         .map(|r| {
             let path = base.join(&r.path);
-            read_verified(&path, &r.sha256, since, limit).map(|_| path)
+            // A file longer than recorded cannot match: read no more than one byte beyond.
+            let bound = limit.min(r.bytes.saturating_add(1));
+            match read_verified(&path, &r.sha256, since, bound) {
+                Err(ProvenanceError::Unreadable(InputError::TooLarge { .. })) => {
+                    Err(ProvenanceError::Changed {
+                        path: path.clone(),
+                        since,
+                        recorded: hex(&r.sha256)[..12].to_string(),
+                        now: format!("more than {} bytes", r.bytes),
+                    })
+                }
+                other => other.map(|_| path),
+            }
         })
         .collect()
 }

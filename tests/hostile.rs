@@ -258,6 +258,35 @@ fn small_files_that_claim_much_are_refused_by_the_limits() {
         ),
         &["forest.instances", "over the limit of 10", "--max-trees"],
     );
+    // A species file that asks for forty million trees stops at the limit, not at the end.
+    let mut dense: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("species.json")).unwrap()).unwrap();
+    for s in dense["species"].as_array_mut().unwrap() {
+        s["spacing"] = serde_json::json!(0.1);
+    }
+    std::fs::write(dir.path().join("dense.json"), dense.to_string()).unwrap();
+    let t = fixture("terrain/mountain.glb");
+    let o = run(
+        &[
+            "place",
+            t.to_str().unwrap(),
+            "--species",
+            "dense.json",
+            "-o",
+            "dense.instances",
+            "--max-trees",
+            "1000",
+        ],
+        dir.path(),
+    );
+    assert_error(
+        &o,
+        &[
+            "tree count is 1001",
+            "over the limit of 1000",
+            "--max-trees",
+        ],
+    );
     // A 40 kB glTF that instances a 1,000-triangle mesh 20,000 times: 20 million triangles.
     let strip: Vec<[f32; 3]> = (0..1002)
         .map(|i| [i as f32 * 0.01, (i % 2) as f32, (i % 3) as f32 * 0.1])
@@ -362,7 +391,7 @@ fn a_huge_topographic_radius_and_heights_beyond_the_stored_scale_are_handled() {
 
     // Trees a thousand kilometres tall cannot be stored: the writer says so, nothing is
     // written that the reader would refuse.
-    let mut giant = base;
+    let mut giant = base.clone();
     for s in giant["species"].as_array_mut().unwrap() {
         s["height"] = serde_json::json!({ "min": 1e6, "max": 1e6 });
         s["spacing"] = serde_json::json!(1e5);
@@ -379,17 +408,38 @@ fn a_huge_topographic_radius_and_heights_beyond_the_stored_scale_are_handled() {
         ],
         dir.path(),
     );
-    if !o.status.success() {
-        assert_error(&o, &["giant.instances"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no tree was placed, though some ground suits"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&["inspect", "giant.instances"], dir.path());
+    assert!(
+        o.status.success(),
+        "what place wrote, inspect reads: {}",
+        stderr(&o)
+    );
+    // Spaced to fit, but each a thousand kilometres tall: a scale the file cannot store.
+    let mut tall = base;
+    for s in tall["species"].as_array_mut().unwrap() {
+        s["height"] = serde_json::json!({ "min": 1e6, "max": 1e6 });
+        s["spacing"] = serde_json::json!(10.0);
     }
-    if dir.path().join("giant.instances").exists() {
-        let o = run(&["inspect", "giant.instances"], dir.path());
-        assert!(
-            o.status.success(),
-            "what place wrote, inspect reads: {}",
-            stderr(&o)
-        );
-    }
+    std::fs::write(dir.path().join("tall.json"), tall.to_string()).unwrap();
+    let o = run(
+        &["place", t, "--species", "tall.json", "-o", "tall.instances"],
+        dir.path(),
+    );
+    assert_error(
+        &o,
+        &[
+            "tall.instances",
+            "cannot write this forest",
+            "outside the stored range",
+        ],
+    );
+    assert!(!dir.path().join("tall.instances").exists());
 }
 
 #[test]

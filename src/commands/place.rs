@@ -101,9 +101,12 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
         .map(|s| s.path.clone())
         .collect();
     outputs.add_inputs(&terrain_files)?;
+    // Placement stops one tree past the limit, so a species file that asks for billions of
+    // trees fails in seconds, not after filling memory.
+    let cap = args.max_count.unwrap_or(limits.trees.saturating_add(1));
     let settings = PlaceSettings {
         seed: args.seed,
-        max_count: args.max_count.map_or(usize::MAX, |m| m as usize),
+        max_count: usize::try_from(cap).unwrap_or(usize::MAX),
         region: args.region,
         cell: args.cell,
         sea_level: args.sea_level,
@@ -111,7 +114,7 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
     // Placement's errors name the flag or the species setting at fault.
     let forest = place::place(&terrain, &species, &model_heights, &settings)?;
     limits.check_trees(forest.instances.len() as u64, "the forest's tree count")?;
-    if forest.truncated {
+    if forest.truncated && args.max_count.is_some() {
         super::warn(&format!(
             "--max-count {} reached: the forest does not fill the region",
             settings.max_count
@@ -186,27 +189,35 @@ fn warn_if_lopsided(forest: &place::Forest, species: &SpeciesFile) {
     for p in &forest.instances {
         counts[p.species as usize] += 1;
     }
-    let why = if n == 0 {
+    let lopsided = species.species.len() > 1 && counts.contains(&n);
+    if n > 0 && !lopsided {
+        return;
+    }
+    let s = survey::survey(
+        &forest.raster,
+        &forest.attributes,
+        species.analysis.tpi_radius,
+        forest.region,
+        Some((species, &forest.suitability)),
+    );
+    let suited = s.species.iter().any(|f| f.suitable_share > 0.0);
+    let why = if n == 0 && !suited {
         "no ground in the region suits any species: the forest is empty".to_string()
-    } else if species.species.len() > 1
-        && let Some(only) = counts.iter().position(|&c| c == n)
-    {
+    } else if n == 0 {
+        let r = forest.region;
+        format!(
+            "no tree was placed, though some ground suits a species: check that the species' \
+             spacing fits the region ({:.0} m x {:.0} m) and their heights the terrain",
+            r[2] - r[0],
+            r[3] - r[1]
+        )
+    } else {
+        let only = counts.iter().position(|&c| c == n).unwrap_or_default();
         format!(
             "every tree is {:?}: no ground in the region suits the other species",
             species.species[only].name
         )
-    } else {
-        return;
     };
-    let region = forest.region;
-    let raster = &forest.raster;
-    let s = survey::survey(
-        raster,
-        &forest.attributes,
-        species.analysis.tpi_radius,
-        region,
-        Some((species, &forest.suitability)),
-    );
     super::warn(&format!(
         "{why}. What the terrain offers and what the species ask for (`texel inspect TERRAIN` shows more):\n{}",
         survey::to_text(&s).trim_end()

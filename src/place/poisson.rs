@@ -106,7 +106,15 @@ pub fn sample<T: Send>(
                 let key = rng::hash3(seed, 0x6261_6e64, b as u64);
                 (
                     b,
-                    sample_band(band(b), &neighbours, r_min, r_max, key, &may_take, &propose),
+                    sample_band(
+                        band(b),
+                        &neighbours,
+                        (r_min, r_max),
+                        key,
+                        max_count,
+                        &may_take,
+                        &propose,
+                    ),
                 )
             })
             .collect();
@@ -163,12 +171,14 @@ impl<T> Band<T> {
 }
 
 /// Samples one band, respecting the discs of samples already made beside it.
+/// Samples one band; stops at `cap` samples (no band needs more than the whole forest may
+/// keep, and a dense species file must not fill memory before the cap applies).
 fn sample_band<T>(
     region: [f64; 4],
     neighbours: &[Disc],
-    r_min: f64,
-    r_max: f64,
+    (r_min, r_max): (f64, f64),
     seed: u64,
+    cap: usize,
     may_take: &impl Fn([f64; 4]) -> bool,
     propose: &impl Fn(f64, f64, u64) -> Option<(f64, T)>,
 ) -> Vec<(Disc, T)> {
@@ -188,7 +198,7 @@ fn sample_band<T>(
     };
     let mut scan = 0usize;
     let mut step = 0u64;
-    loop {
+    while band.discs.len() < cap {
         if !band.active.is_empty() {
             // A random one of the most recently added: growth stays on a compact front, which
             // keeps the grid's working set in cache, yet is not a single ordered wave.

@@ -105,6 +105,8 @@ fn preference(name: &str, unit: &str, p: &Preference) -> String {
         "{name} near {} (tolerance {}) {unit}",
         p.preferred, p.tolerance
     )
+    .trim_end()
+    .to_string()
 }
 
 /// The habitat's terms, as text.
