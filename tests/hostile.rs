@@ -8,34 +8,6 @@ use std::path::Path;
 
 use common::*;
 
-/// The fixture trees baked coarse, the species file, and a forest on part of the mountain.
-fn small_forest() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    species_with_texels(dir.path());
-    let o = place_on_mountain(dir.path(), &["--region=-120,-120,120,120"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    dir
-}
-
-const VIEW: [&str; 9] = [
-    "--eye=-150,450,260",
-    "--target",
-    "0,300,0",
-    "--width",
-    "64",
-    "--height",
-    "36",
-    "--fov",
-    "40",
-];
-
-fn render(dir: &Path, extra: &[&str]) -> std::process::Output {
-    let mut a = vec!["render", "forest.instances"];
-    a.extend_from_slice(&VIEW);
-    a.extend_from_slice(extra);
-    run(&a, dir)
-}
-
 fn files_in(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .unwrap()

@@ -8,33 +8,6 @@ use std::path::Path;
 use common::*;
 
 /// A small forest: the fixture trees baked coarse, placed on part of the fixture mountain.
-fn small_forest() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    species_with_texels(dir.path());
-    let o = place_on_mountain(dir.path(), &["--region=-120,-120,120,120"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    dir
-}
-
-const VIEW: [&str; 8] = [
-    "--eye=-150,450,260",
-    "--target",
-    "0,300,0",
-    "--width",
-    "64",
-    "--height",
-    "36",
-    "--fov",
-];
-
-fn render(dir: &Path, extra: &[&str]) -> std::process::Output {
-    let mut a = vec!["render", "forest.instances"];
-    a.extend_from_slice(&VIEW);
-    a.push("40");
-    a.extend_from_slice(extra);
-    run(&a, dir)
-}
-
 #[test]
 fn renders_an_exr_that_openexr_reads_with_depth_aovs_and_camera_matrices() {
     let dir = small_forest();

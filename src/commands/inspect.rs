@@ -6,7 +6,7 @@ use anyhow::{Context, bail};
 
 use texel_forest::formats::{container, instances, texel};
 use texel_forest::input::{self, MAX_GLTF, MAX_SPECIES};
-use texel_forest::inspect::texel::FileFacts;
+use texel_forest::inspect::FileFacts;
 use texel_forest::inspect::{
     instances as forest_view, pictures, terrain as terrain_view, texel as summary,
 };
@@ -99,15 +99,6 @@ pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
     }
 }
 
-fn facts(bytes: &[u8]) -> FileFacts {
-    let p = container::preamble(bytes);
-    FileFacts {
-        bytes: bytes.len() as u64,
-        minor: p.map_or(0, |p| p.minor),
-        raw_bytes: p.map_or(0, |p| p.raw_len),
-    }
-}
-
 fn run_texel(
     args: &InspectArgs,
     limits: &Limits,
@@ -128,7 +119,7 @@ fn run_texel(
         if wants_picture {
             bail!("--slice and --projection write a picture: give -o FILE.png");
         }
-        let s = summary::summarize(&texel, facts(&bytes));
+        let s = summary::summarize(&texel, FileFacts::of(&bytes));
         return print_summary(&s, args.json, summary::to_text);
     };
     if args.level >= texel.levels.len() {
@@ -179,7 +170,7 @@ fn run_instances(
         if args.map {
             bail!("--map writes a picture: give -o FILE.png");
         }
-        let s = forest_view::summarize(&forest, facts(&bytes));
+        let s = forest_view::summarize(&forest, FileFacts::of(&bytes));
         return print_summary(&s, args.json, forest_view::to_text);
     };
     if !args.map {

@@ -125,7 +125,7 @@ fn spacing(f: &Forest) -> Option<(f64, f64)> {
     Some((distance, ratio))
 }
 
-pub fn summarize(f: &Forest, file: super::texel::FileFacts) -> ForestSummary {
+pub fn summarize(f: &Forest, file: super::FileFacts) -> ForestSummary {
     let file_bytes = file.bytes;
     let n = f.instances.len();
     let r = f.info.region;

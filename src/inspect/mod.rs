@@ -5,6 +5,27 @@ pub mod pictures;
 pub mod terrain;
 pub mod texel;
 
+/// What a container file says about itself that its decoded content does not carry.
+#[derive(Clone, Copy, Debug)]
+pub struct FileFacts {
+    pub bytes: u64,
+    pub minor: u16,
+    /// The payload's length once decompressed, as the preamble declares it.
+    pub raw_bytes: u64,
+}
+
+impl FileFacts {
+    /// The facts of a container file's bytes (zeros where the preamble is short).
+    pub fn of(bytes: &[u8]) -> FileFacts {
+        let p = crate::formats::container::preamble(bytes);
+        FileFacts {
+            bytes: bytes.len() as u64,
+            minor: p.map_or(0, |p| p.minor),
+            raw_bytes: p.map_or(0, |p| p.raw_len),
+        }
+    }
+}
+
 /// Text from a file, safe to print on a terminal: control characters (C0, DEL, C1) and the
 /// invisible characters that reorder or hide text are shown as `\u{..}` escapes, so a name
 /// in a file cannot move the cursor, recolour the terminal or disguise itself.

@@ -4,6 +4,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
+pub use super::FileFacts;
 use super::printable;
 use crate::bake::sobel;
 use crate::formats::hex;
@@ -105,15 +106,6 @@ pub fn column_depths(texel: &Texel, level: usize, axis: usize) -> Vec<f64> {
         }
     }
     depth
-}
-
-/// The file's facts the decoded texture does not carry.
-#[derive(Clone, Copy, Debug)]
-pub struct FileFacts {
-    pub bytes: u64,
-    pub minor: u16,
-    /// The payload's length once decompressed.
-    pub raw_bytes: u64,
 }
 
 pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {

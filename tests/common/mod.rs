@@ -99,3 +99,34 @@ pub fn place_on_mountain(dir: &Path, extra: &[&str]) -> Output {
     args.extend_from_slice(extra);
     run(&args, dir)
 }
+
+/// The fixture trees baked coarse, the species file, and a forest on a 240 m square in the
+/// middle of the mountain, as `forest.instances`.
+pub fn small_forest() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    species_with_texels(dir.path());
+    let o = place_on_mountain(dir.path(), &["--region=-120,-120,120,120"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    dir
+}
+
+/// A small view of `small_forest`: 64 x 36 pixels from the south-west, above the trees.
+pub const VIEW: [&str; 9] = [
+    "--eye=-150,450,260",
+    "--target",
+    "0,300,0",
+    "--width",
+    "64",
+    "--height",
+    "36",
+    "--fov",
+    "40",
+];
+
+/// `texel render forest.instances` in `dir` with [`VIEW`] and `extra`.
+pub fn render(dir: &Path, extra: &[&str]) -> Output {
+    let mut a = vec!["render", "forest.instances"];
+    a.extend_from_slice(&VIEW);
+    a.extend_from_slice(extra);
+    run(&a, dir)
+}
