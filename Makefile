@@ -19,8 +19,9 @@ FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/fo
 demo: $(TEXELS) $(VIEWS) $(FOREST)
 	@echo "demo: outputs under $(OUT)/ (trees/: texels, summaries, pictures; forest.*: the placed forest and its map)"
 
+# Release speed, with overflow checks and debug assertions on (the `ci` profile).
 test:
-	$(CARGO) test --release
+	$(CARGO) test --profile ci
 
 bench:
 	$(CARGO) bench --bench bake --bench place --bench render

@@ -82,8 +82,11 @@ impl Texture {
         if !uv.is_finite() {
             return self.texel(0, 0);
         }
-        let x = uv.x as f64 * self.width as f64 - 0.5;
-        let y = uv.y as f64 * self.height as f64 - 0.5;
+        // Texel coordinates far beyond any texture (2^40 texels) carry no fraction an f32 uv
+        // could resolve: hold them there, so the integer texel indices cannot overflow.
+        const FAR: f64 = (1u64 << 40) as f64;
+        let x = (uv.x as f64 * self.width as f64 - 0.5).clamp(-FAR, FAR);
+        let y = (uv.y as f64 * self.height as f64 - 0.5).clamp(-FAR, FAR);
         if self.nearest {
             return self.texel((x + 0.5).floor() as i64, (y + 0.5).floor() as i64);
         }
@@ -213,4 +216,35 @@ fn decode(bytes: &[u8]) -> Result<(::image::RgbaImage, bool), String> {
         .map_err(|e| format!("cannot decode image: {e}"))?;
     let has_alpha = image.color().has_alpha();
     Ok((image.to_rgba8(), has_alpha))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Texture coordinates at the ends of f32 (as hostile files give them) sample without
+    /// overflowing the texel arithmetic, in every wrap mode and filter.
+    #[test]
+    fn extreme_coordinates_sample_without_overflow() {
+        for wrap in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
+            for nearest in [false, true] {
+                let t = Texture {
+                    width: 3,
+                    height: 2,
+                    texels: vec![[255, 128, 0, 200]; 6],
+                    wrap: [wrap; 2],
+                    nearest,
+                    has_alpha: true,
+                };
+                for uv in [
+                    Vec2::new(f32::MAX, f32::MIN),
+                    Vec2::new(1e30, -1e30),
+                    Vec2::new(-f32::MAX, 0.5),
+                ] {
+                    let c = t.sample(uv);
+                    assert!(c.is_finite() && (c.w - 200.0 / 255.0).abs() < 1e-6, "{c}");
+                }
+            }
+        }
+    }
 }
