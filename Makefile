@@ -2,7 +2,7 @@
 # Every stage is a file-to-file rule with a depfile, the way a user's build would drive texel.
 
 CARGO ?= cargo
-TEXEL := target/release/texel
+TEXEL := $(or $(CARGO_TARGET_DIR),target)/release/texel
 OUT := out
 TREES := conifer broadleaf bare
 TEXELS := $(TREES:%=$(OUT)/trees/%.texel)

@@ -7,11 +7,23 @@ use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};
 
-use crate::formats::hex;
-use crate::import::Source;
+use crate::hex::hex;
 use crate::input::{self, InputError};
 use crate::output::relative_path;
-use crate::volume::SourceFile;
+
+/// A file something was made from: where it is (`P`), its SHA-256 and its size. As a glTF
+/// import read it, the path is where it was read (`Source<PathBuf>`); as our files record it,
+/// the path is relative to the recording file, `/`-separated ([`SourceFile`]).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, bincode::Encode, bincode::Decode)]
+pub struct Source<P = String> {
+    pub path: P,
+    #[serde(serialize_with = "crate::hex::hex32")]
+    pub sha256: [u8; 32],
+    pub bytes: u64,
+}
+
+/// A source as `.texel` and `.instances` record it (path relative to the recording file).
+pub type SourceFile = Source<String>;
 
 pub fn sha256(bytes: &[u8]) -> [u8; 32] {
     Sha256::digest(bytes).into()
@@ -28,7 +40,7 @@ pub fn source(path: &Path, bytes: &[u8], base: &Path) -> SourceFile {
 
 /// The records of files an import read, relative to `base`, and the SHA-256 of their
 /// concatenated digests (`.texel`'s `inputs_sha256`).
-pub fn record(sources: &[Source], base: &Path) -> (Vec<SourceFile>, [u8; 32]) {
+pub fn record(sources: &[Source<PathBuf>], base: &Path) -> (Vec<SourceFile>, [u8; 32]) {
     let mut all = Sha256::new();
     let records = sources
         .iter()

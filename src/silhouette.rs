@@ -6,7 +6,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::geom::Ray;
+use crate::geom::{Ray, box_corners};
 use crate::mesh_tracer::MeshTracer;
 use crate::rng;
 use crate::volume::Texel;
@@ -96,15 +96,7 @@ pub fn compare(
     let helper = if d.y.abs() < 0.9 { DVec3::Y } else { DVec3::X };
     let e1 = d.cross(helper).normalize();
     let e2 = d.cross(e1);
-    let corners: Vec<DVec3> = (0..8)
-        .map(|i| {
-            DVec3::new(
-                if i & 1 == 0 { frame.lo.x } else { frame.hi.x },
-                if i & 2 == 0 { frame.lo.y } else { frame.hi.y },
-                if i & 4 == 0 { frame.lo.z } else { frame.hi.z },
-            )
-        })
-        .collect();
+    let corners = box_corners(frame.lo.to_array(), frame.hi.to_array()).map(DVec3::from);
     let centre = (frame.lo + frame.hi) * 0.5;
     let radius = (frame.hi - frame.lo).length() * 0.5;
     let span = |e: DVec3| {
@@ -154,7 +146,7 @@ pub fn compare(
             (hits as f64 / n, 1.0 - transmitted / n)
         })
         .collect();
-    summarise(d, &per_pixel)
+    summarize(d, &per_pixel)
 }
 
 /// `n` directions spread uniformly over the sphere, the same for every caller.
@@ -208,13 +200,13 @@ pub fn axis_columns(
             (hits as f64 / (rays * rays) as f64, 1.0 - (-depths[c]).exp())
         })
         .collect();
-    summarise(
+    summarize(
         DVec3::from(std::array::from_fn(|i| (i == axis) as u8 as f64)),
         &per_column,
     )
 }
 
-fn summarise(d: DVec3, per_pixel: &[(f64, f64)]) -> SilhouetteError {
+fn summarize(d: DVec3, per_pixel: &[(f64, f64)]) -> SilhouetteError {
     let n = per_pixel.len() as f64;
     let covered: Vec<f64> = per_pixel
         .iter()

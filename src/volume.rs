@@ -10,6 +10,8 @@
 use glam::{DVec3, Vec3};
 use serde::Serialize;
 
+use crate::provenance::SourceFile;
+
 /// How the density channels relate to extinction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, bincode::Encode, bincode::Decode)]
 pub enum DensityModel {
@@ -117,16 +119,6 @@ impl Level {
     }
 }
 
-/// A file the texture was baked from.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, bincode::Encode, bincode::Decode)]
-pub struct SourceFile {
-    /// Path relative to the directory of the `.texel` file, with `/` separators.
-    pub path: String,
-    #[serde(serialize_with = "crate::formats::hex32")]
-    pub sha256: [u8; 32],
-    pub bytes: u64,
-}
-
 /// The parameters a bake was run with, recorded so a texture can be re-made or compared.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BakeParameters {
@@ -199,7 +191,7 @@ pub struct TexelInfo {
     pub mesh_coverage: [f64; 3],
     pub sources: Vec<SourceFile>,
     /// SHA-256 over the SHA-256 of every source, in order.
-    #[serde(serialize_with = "crate::formats::hex32")]
+    #[serde(serialize_with = "crate::hex::hex32")]
     pub inputs_sha256: [u8; 32],
     pub parameters: BakeParameters,
     /// How each material of the model divided between wood and foliage (empty in files

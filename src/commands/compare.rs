@@ -6,7 +6,6 @@ use std::path::Path;
 use anyhow::{Context, bail};
 
 use texel_forest::compare::{Comparison, Metrics, Rgba, check_same_window, compare, heatmap};
-use texel_forest::inspect::pictures::png_bytes;
 use texel_forest::limits::Limits;
 use texel_forest::output::Outputs;
 
@@ -101,7 +100,7 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     if let Some(id) = heatmap_out {
         // A zero scale (identical images) draws everything black rather than dividing by 0.
         let picture = heatmap(&a, &b, scale.max(f32::MIN_POSITIVE));
-        outputs.set(id, png_bytes(&picture));
+        outputs.set(id, texel_forest::png::encode(&picture));
         outputs.commit()?;
     }
     if args.json {

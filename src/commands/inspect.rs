@@ -47,7 +47,7 @@ fn write_png(
     id: texel_forest::output::OutputId,
     image: &image::RgbImage,
 ) -> anyhow::Result<()> {
-    outputs.set(id, pictures::png_bytes(image));
+    outputs.set(id, texel_forest::png::encode(image));
     Ok(outputs.commit()?)
 }
 

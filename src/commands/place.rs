@@ -183,7 +183,7 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
 /// An empty forest, or one species taking every tree, usually means the species file's
 /// habitats do not fit this terrain (a coarse DEM's slopes and wetness differ from a fine
 /// one's): say what the terrain offers and what each species asks for.
-fn warn_if_lopsided(forest: &place::Forest, species: &SpeciesFile) {
+fn warn_if_lopsided(forest: &place::Placement, species: &SpeciesFile) {
     let n = forest.instances.len();
     let mut counts = vec![0usize; species.species.len()];
     for p in &forest.instances {

@@ -4,9 +4,8 @@ use bincode::{Decode, Encode};
 
 use super::container::{self, ContainerError, header_config};
 use crate::limits::{LimitError, Limits};
-use crate::place::Instance;
 use crate::species::{Seasons, Traits};
-use crate::volume::SourceFile;
+use crate::provenance::SourceFile;
 
 pub const MAGIC: &[u8; 8] = b"\x89TXINST\n";
 pub const MAJOR: u16 = 1;
@@ -14,6 +13,24 @@ pub const MINOR: u16 = 0;
 
 /// Position quantum: one centimetre.
 pub const QUANTUM: f64 = 0.01;
+/// Scale codes per doubling: a stored scale is `2^((v - 32768) / SCALE_STEPS)`.
+pub const SCALE_STEPS: f64 = 2048.0;
+
+/// One tree, as a forest file records it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into the species table.
+    pub species: u8,
+    /// World position of the base of the trunk (metres); y is on the terrain.
+    pub position: [f64; 3],
+    /// Rotation about +Y, radians in [0, 2 pi).
+    pub rotation: f32,
+    /// Factor from the texel model's units to the tree's size.
+    pub scale: f32,
+    /// Free for renderers: per-tree variation of colour and the like.
+    pub variation: u16,
+}
+
 /// Bytes of one instance before compression (x, z, y: 4 each; species 1; rotation, scale,
 /// variation: 2 each).
 pub const RAW_BYTES_PER_INSTANCE: usize = 19;
@@ -26,7 +43,7 @@ pub struct SpeciesRecord {
     pub name: String,
     /// The texture, relative to the directory of the `.instances` file.
     pub texel: String,
-    #[serde(serialize_with = "crate::formats::hex32")]
+    #[serde(serialize_with = "crate::hex::hex32")]
     pub texel_sha256: [u8; 32],
     /// A leafless texture for winter, relative to the `.instances` file, and its hash.
     pub leafless_texel: Option<String>,
@@ -125,13 +142,13 @@ fn read_planes(bytes: &[u8], n: usize, width: usize) -> Vec<u32> {
 
 /// Scale as a u16 on a log scale: 2^((v - 32768) / 2048), 0.034% steps from 2^-16 to 2^16.
 pub fn encode_scale(scale: f32) -> u16 {
-    ((scale as f64).log2() * 2048.0 + 32768.0)
+    ((scale as f64).log2() * SCALE_STEPS + 32768.0)
         .round()
         .clamp(0.0, 65535.0) as u16
 }
 
 pub fn decode_scale(v: u16) -> f32 {
-    ((v as f64 - 32768.0) / 2048.0).exp2() as f32
+    ((v as f64 - 32768.0) / SCALE_STEPS).exp2() as f32
 }
 
 /// Rotation in [0, 2 pi) as a u16 of 1/65536 turns.

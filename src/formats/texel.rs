@@ -8,8 +8,9 @@ use bincode::{Decode, Encode};
 
 use super::container::{self, ContainerError, header_config};
 use crate::limits::{LimitError, Limits};
+use crate::provenance::SourceFile;
 use crate::volume::{
-    BakeParameters, DensityModel, Level, MaterialPart, PartReason, SourceFile, Texel, TexelInfo,
+    BakeParameters, DensityModel, Level, MaterialPart, PartReason, Texel, TexelInfo,
 };
 
 pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";

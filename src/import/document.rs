@@ -7,7 +7,8 @@ use base64::Engine as _;
 use gltf_json as json;
 use sha2::{Digest, Sha256};
 
-use super::{ImportError, Source};
+use super::ImportError;
+use crate::provenance::Source;
 use crate::input::{self, InputError, MAX_GLTF};
 use crate::limits::Limits;
 
@@ -50,7 +51,7 @@ pub(super) struct Document {
     /// The `.glb` binary chunk, which `buffers[0]` refers to when it has no URI.
     glb_bin: Option<Vec<u8>>,
     buffers: Vec<Option<Vec<u8>>>,
-    pub sources: Vec<Source>,
+    pub sources: Vec<Source<PathBuf>>,
     pub warnings: Vec<String>,
     pub limits: Limits,
 }

@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 use glam::{Mat3, Vec2, Vec3, Vec4};
 
 use crate::limits::Limits;
+use crate::provenance::Source;
 
 pub use self::image::{Texture, WrapMode};
 
@@ -158,16 +159,9 @@ pub struct Model {
     pub cameras: Vec<SceneCamera>,
     pub suns: Vec<SceneSun>,
     /// Every file read: the glTF first, then external buffers and images, in the order read.
-    pub sources: Vec<Source>,
+    pub sources: Vec<Source<PathBuf>>,
     /// Things skipped or ignored that a user may want to know about.
     pub warnings: Vec<String>,
-}
-
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Source {
-    pub path: PathBuf,
-    pub sha256: [u8; 32],
-    pub bytes: u64,
 }
 
 /// Why a glTF file could not be imported. Every variant names the file; `field` is the JSON path

@@ -130,7 +130,7 @@ fn node_transforms_compose_and_mirroring_keeps_faces_outward() {
 }
 
 #[test]
-fn normalized_sparse_accessors_and_vertex_colours_decode() {
+fn normalized_sparse_accessors_and_vertex_colors_decode() {
     let (mut bin, mut views) = (vec![], vec![]);
     let p = view(&mut bin, &mut views, &f32s(&SQUARE[..9]));
     // COLOR_0 as normalized unsigned bytes, RGBA.
@@ -165,10 +165,10 @@ fn normalized_sparse_accessors_and_vertex_colours_decode() {
 }
 
 #[test]
-fn base_colour_textures_are_decoded_from_srgb_and_transformed() {
+fn base_color_textures_are_decoded_from_srgb_and_transformed() {
     // A 2 x 1 texture: left texel sRGB 188 (linear ~0.5), right texel black with alpha 0.
     let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 0, 0, 0, 0]).unwrap();
-    let png = crate::procedural::png(&img);
+    let png = crate::png::encode(&img);
     let (mut bin, mut views) = (vec![], vec![]);
     let p = view(&mut bin, &mut views, &f32s(&SQUARE[..9]));
     let uv = view(

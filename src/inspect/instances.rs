@@ -6,10 +6,10 @@ use image::RgbImage;
 use serde::Serialize;
 
 use super::printable;
-use crate::formats::hex;
+use crate::hex::hex;
 use crate::formats::instances::Forest;
 use crate::terrain::{Heightfield, Terrain, hillshade};
-use crate::volume::SourceFile;
+use crate::provenance::SourceFile;
 
 /// Map colours of species 0, 1, ... (ColorBrewer "Dark2", then repeating).
 const PALETTE: [[u8; 3]; 8] = [
@@ -23,7 +23,7 @@ const PALETTE: [[u8; 3]; 8] = [
     [102, 102, 102],
 ];
 
-pub fn colour(species: usize) -> [u8; 3] {
+pub fn color(species: usize) -> [u8; 3] {
     PALETTE[species % PALETTE.len()]
 }
 
@@ -59,7 +59,7 @@ pub struct SpeciesSummary {
     pub name: String,
     pub trees: usize,
     pub per_hectare: f64,
-    pub map_colour: String,
+    pub map_color: String,
     pub texel: String,
     /// Shortest and tallest tree (m); absent when the species has none.
     pub height_range: Option<[f64; 2]>,
@@ -146,7 +146,7 @@ pub fn summarize(f: &Forest, file: super::FileFacts) -> ForestSummary {
                 name: s.name.clone(),
                 trees: mine.len(),
                 per_hectare: mine.len() as f64 / hectares,
-                map_colour: format!("#{}", hex(&colour(i))),
+                map_color: format!("#{}", hex(&color(i))),
                 texel: s.texel.clone(),
                 height_range: (!mine.is_empty()).then(|| {
                     [
@@ -246,7 +246,7 @@ pub fn to_text(s: &ForestSummary) -> String {
             printable(&sp.name),
             sp.trees,
             sp.per_hectare,
-            sp.map_colour,
+            sp.map_color,
             printable(&sp.texel)
         );
     }
@@ -326,7 +326,7 @@ pub fn map(f: &Forest, terrain: Option<&Terrain>, long_side: usize) -> RgbImage 
             (p.position[0] - r[0]) / pixel,
             (p.position[2] - r[1]) / pixel,
         );
-        let col = colour(p.species as usize);
+        let col = color(p.species as usize);
         let reach = radius.ceil() as i64;
         for dy in -reach..=reach {
             for dx in -reach..=reach {

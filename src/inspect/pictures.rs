@@ -161,10 +161,3 @@ pub fn projection(texel: &Texel, level: usize, axis: usize) -> RgbImage {
     img
 }
 
-/// PNG bytes of an image (deterministic).
-pub fn png_bytes(img: &RgbImage) -> Vec<u8> {
-    let mut out = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
-        .expect("encoding a PNG in memory cannot fail");
-    out
-}

@@ -14,7 +14,7 @@ use crate::place::{self, Habitat, PlaceError, PlaceSettings};
 use crate::species::SpeciesFile;
 use crate::terrain::survey::{self, Survey};
 use crate::terrain::{Terrain, hillshade};
-use crate::volume::SourceFile;
+use crate::provenance::SourceFile;
 
 #[derive(Serialize, Debug)]
 pub struct TerrainSummary {
@@ -91,7 +91,7 @@ pub fn to_text(s: &TerrainSummary) -> String {
             "{label:<13} {}  {} bytes  sha256 {}",
             printable(&src.path),
             src.bytes,
-            crate::formats::hex(&src.sha256)
+            crate::hex::hex(&src.sha256)
         );
     }
     o
@@ -135,7 +135,7 @@ pub fn attribute_maps(habitat: &Habitat) -> RgbImage {
         for j in 0..h {
             for i in 0..w {
                 let v = values[(i + w * j) as usize];
-                let colour = if !v.is_finite() || (panel == 3 && v < 0.0) {
+                let color = if !v.is_finite() || (panel == 3 && v < 0.0) {
                     [255, 255, 255]
                 } else if panel == 0 {
                     [(255.0 * v.clamp(0.0, 1.0)) as u8; 3]
@@ -146,7 +146,7 @@ pub fn attribute_maps(habitat: &Habitat) -> RgbImage {
                 };
                 for dy in 0..zoom {
                     for dx in 0..zoom {
-                        img.put_pixel(ox + i * zoom + dx, oy + j * zoom + dy, image::Rgb(colour));
+                        img.put_pixel(ox + i * zoom + dx, oy + j * zoom + dy, image::Rgb(color));
                     }
                 }
             }

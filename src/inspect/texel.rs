@@ -7,8 +7,9 @@ use serde::Serialize;
 pub use super::FileFacts;
 use super::printable;
 use crate::bake::sobel;
-use crate::formats::hex;
-use crate::volume::{BakeParameters, DensityModel, MaterialPart, SourceFile, Texel};
+use crate::hex::hex;
+use crate::provenance::SourceFile;
+use crate::volume::{BakeParameters, DensityModel, MaterialPart, Texel};
 
 #[derive(Serialize, Debug)]
 pub struct Summary {
@@ -41,7 +42,7 @@ pub struct Summary {
     pub coverage_mesh: [f64; 3],
     pub coverage_texture: [f64; 3],
     pub sources: Vec<SourceFile>,
-    #[serde(serialize_with = "crate::formats::hex32")]
+    #[serde(serialize_with = "crate::hex::hex32")]
     pub inputs_sha256: [u8; 32],
     pub parameters: BakeParameters,
 }

@@ -10,7 +10,8 @@ pub mod poisson;
 
 use rayon::prelude::*;
 
-use crate::formats::instances::QUANTUM;
+use crate::formats::instances::{QUANTUM, SCALE_STEPS};
+pub use crate::formats::instances::Instance;
 use crate::rng;
 use crate::species::SpeciesFile;
 use crate::terrain::{Attributes, Heightfield, Terrain};
@@ -63,23 +64,9 @@ impl Default for PlaceSettings {
     }
 }
 
-/// One tree.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Instance {
-    /// Index into the species table.
-    pub species: u8,
-    /// World position of the base of the trunk (metres); y is on the terrain.
-    pub position: [f64; 3],
-    /// Rotation about +Y, radians in [0, 2 pi).
-    pub rotation: f32,
-    /// Factor from the texel model's units to the tree's size.
-    pub scale: f32,
-    /// Free for renderers: per-tree variation of colour and the like.
-    pub variation: u16,
-}
 
 /// The result of placement, with what was derived on the way (for pictures and reports).
-pub struct Forest {
+pub struct Placement {
     pub region: [f64; 4],
     pub raster: Heightfield,
     pub attributes: Attributes,
@@ -193,7 +180,7 @@ pub fn place(
     species: &SpeciesFile,
     model_heights: &[f64],
     settings: &PlaceSettings,
-) -> Result<Forest, PlaceError> {
+) -> Result<Placement, PlaceError> {
     let (r_min, r_max) = radius_range(species);
     if r_max / r_min > MAX_RADIUS_RATIO {
         return Err(PlaceError::Settings(format!(
@@ -303,7 +290,7 @@ pub fn place(
         morton(q(p.position[0], region[0]), q(p.position[2], region[1]))
     };
     instances.sort_by_cached_key(morton_key);
-    Ok(Forest {
+    Ok(Placement {
         region,
         raster,
         attributes,
@@ -326,10 +313,10 @@ pub fn quantisation_origin(trees: &[Instance]) -> [f64; 3] {
 }
 
 /// The radius the sampler keeps, a little larger than the tree's: positions are stored to the
-/// centimetre and scales in steps of 2^(1/2048), and the trees as stored must keep the spacing
+/// centimetre and scales in steps of 2^(1/SCALE_STEPS), and the trees as stored must keep the spacing
 /// rule, not only the trees as placed.
 fn stored_radius_guard(r: f64) -> f64 {
-    r * (2f64.powf(1.0 / 2048.0)) + QUANTUM * std::f64::consts::SQRT_2
+    r * 2f64.powf(1.0 / SCALE_STEPS) + QUANTUM * std::f64::consts::SQRT_2
 }
 
 /// Interleaves the bits of two 32-bit coordinates (x in the even bits).

@@ -128,8 +128,8 @@ pub fn sample<T: Send>(
 }
 
 /// One band's samples as they grow.
-struct Band<T> {
-    grid: Grid,
+struct Strip<T> {
+    grid: DiscGrid,
     discs: Vec<Disc>,
     payloads: Vec<T>,
     /// Darts each sample has thrown.
@@ -138,7 +138,7 @@ struct Band<T> {
     active: Vec<u32>,
 }
 
-impl<T> Band<T> {
+impl<T> Strip<T> {
     /// Accepts (x, z) if the caller takes it and it breaks no disc, and makes it active. The
     /// caller is asked only after the cheap test against the existing discs' own radii, which
     /// most darts fail.
@@ -182,14 +182,14 @@ fn sample_band<T>(
     may_take: &impl Fn([f64; 4]) -> bool,
     propose: &impl Fn(f64, f64, u64) -> Option<(f64, T)>,
 ) -> Vec<(Disc, T)> {
-    let mut grid = Grid::new(region, r_min, r_max);
+    let mut grid = DiscGrid::new(region, r_min, r_max);
     for d in neighbours {
         if let Some(c) = grid.padded_cell_of(d.x, d.z) {
             grid.put(c, d.x, d.z, d.r);
         }
     }
     let [x0, z0, x1, z1] = region;
-    let mut band = Band {
+    let mut band = Strip {
         grid,
         discs: Vec::new(),
         payloads: Vec::new(),
@@ -284,7 +284,7 @@ const EMPTY: Slot = Slot {
 
 /// The background grid: cells of r_min / sqrt 2 hold at most one sample each, with a border of
 /// empty cells as wide as the largest radius so neighbourhood scans need no bounds checks.
-struct Grid {
+struct DiscGrid {
     x0: f64,
     z0: f64,
     x1: f64,
@@ -300,8 +300,8 @@ struct Grid {
     offsets: Vec<isize>,
 }
 
-impl Grid {
-    fn new(region: [f64; 4], r_min: f64, r_max: f64) -> Grid {
+impl DiscGrid {
+    fn new(region: [f64; 4], r_min: f64, r_max: f64) -> DiscGrid {
         let [x0, z0, x1, z1] = region;
         let cell = r_min / std::f64::consts::SQRT_2;
         let nx = ((x1 - x0) / cell).ceil().max(1.0) as usize;
@@ -319,7 +319,7 @@ impl Grid {
             .filter(|o| o.2 < r_max)
             .collect();
         offsets.sort_by(|a, b| a.2.total_cmp(&b.2).then((a.1, a.0).cmp(&(b.1, b.0))));
-        Grid {
+        DiscGrid {
             x0,
             z0,
             x1,

@@ -215,7 +215,7 @@ impl ModelBuilder {
             let mut pbr = json!({ "baseColorFactor": spec.color, "metallicFactor": 0.0, "roughnessFactor": 0.9 });
             let mut material = json!({ "name": spec.name, "doubleSided": true });
             if let Some((img, cutoff)) = &spec.mask {
-                let png = crate::procedural::png(img);
+                let png = crate::png::encode(img);
                 match external {
                     Some(stem) => {
                         let name = format!("{stem}_{}.png", images.len());

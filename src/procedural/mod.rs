@@ -13,28 +13,9 @@ use trees::Deciduous;
 
 use crate::bake::{self, BakeSettings};
 use crate::formats::texel;
-use crate::volume::SourceFile;
+use crate::provenance::SourceFile;
 
 const GENERATOR: &str = "texel-forest procedural fixtures";
-
-/// PNG bytes of an RGBA image, with fixed encoder settings so the bytes are reproducible.
-pub fn png(img: &image::RgbaImage) -> Vec<u8> {
-    use image::ImageEncoder;
-    let mut out = Vec::new();
-    image::codecs::png::PngEncoder::new_with_quality(
-        &mut out,
-        image::codecs::png::CompressionType::Best,
-        image::codecs::png::FilterType::Adaptive,
-    )
-    .write_image(
-        img.as_raw(),
-        img.width(),
-        img.height(),
-        image::ExtendedColorType::Rgba8,
-    )
-    .expect("encoding a PNG in memory cannot fail");
-    out
-}
 
 /// Every fixture file, as (path relative to `fixtures/`, bytes).
 pub fn fixture_files() -> Vec<(String, Vec<u8>)> {

@@ -148,15 +148,7 @@ impl Camera {
         if !(lo.is_finite() && hi.is_finite()) {
             return Err("the box to frame is not finite".into());
         }
-        let corners: Vec<DVec3> = (0..8)
-            .map(|k| {
-                DVec3::new(
-                    [lo.x, hi.x][k & 1],
-                    [lo.y, hi.y][(k >> 1) & 1],
-                    [lo.z, hi.z][k >> 2],
-                )
-            })
-            .collect();
+        let corners = crate::geom::box_corners(lo.to_array(), hi.to_array()).map(DVec3::from);
         let (az, el) = (azimuth.to_radians(), elevation.to_radians());
         let towards_eye = DVec3::new(az.sin() * el.cos(), el.sin(), -az.cos() * el.cos());
         let mut target = (lo + hi) * 0.5;

@@ -3,7 +3,7 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::geom::{Aabb, Bvh, Ray, TriangleBvh, TriangleHit};
+use crate::geom::{Aabb, Bvh, Ray, TriangleBvh, TriangleHit, box_corners};
 use crate::import::Mesh;
 use crate::volume::Texel;
 
@@ -234,16 +234,8 @@ impl Scene {
             .iter()
             .map(|i| {
                 let b = model_boxes[looks[i.look as usize].texel];
-                let corners: Vec<Vec3> = (0..8)
-                    .map(|k| {
-                        let m = Vec3::new(
-                            if k & 1 == 0 { b.lo.x } else { b.hi.x },
-                            if k & 2 == 0 { b.lo.y } else { b.hi.y },
-                            if k & 4 == 0 { b.lo.z } else { b.hi.z },
-                        );
-                        i.position + i.dir_to_world(m) * i.scale
-                    })
-                    .collect();
+                let corners = box_corners(b.lo.to_array(), b.hi.to_array())
+                    .map(|m| i.position + i.dir_to_world(Vec3::from(m)) * i.scale);
                 Aabb::of_points(&corners)
             })
             .collect();
