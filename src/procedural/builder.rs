@@ -109,13 +109,8 @@ impl ModelBuilder {
 
     /// A closed axis-aligned box from `lo` to `hi`, faces wound outwards.
     pub fn cuboid(&mut self, m: usize, lo: Vec3, hi: Vec3) {
-        let corner = |i: usize| {
-            Vec3::new(
-                if i & 1 == 0 { lo.x } else { hi.x },
-                if i & 2 == 0 { lo.y } else { hi.y },
-                if i & 4 == 0 { lo.z } else { hi.z },
-            )
-        };
+        let corners = crate::geom::box_corners(lo.to_array(), hi.to_array());
+        let corner = |i: usize| Vec3::from(corners[i]);
         // Each face as four corner indices, counter-clockwise seen from outside.
         const FACES: [([usize; 4], [f32; 3]); 6] = [
             ([0, 4, 6, 2], [-1.0, 0.0, 0.0]),
