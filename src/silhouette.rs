@@ -174,7 +174,7 @@ pub fn axis_columns(
 ) -> SilhouetteError {
     let l = &texel.levels[0];
     let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-    let depths = crate::inspect::texel::column_depths(texel, 0, axis);
+    let depths = texel.column_depths(0, axis);
     let origin = texel.origin();
     let per_column: Vec<(f64, f64)> = (0..depths.len())
         .into_par_iter()

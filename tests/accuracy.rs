@@ -100,7 +100,7 @@ fn occupancy_gamma_is_fitted_to_the_mean_silhouette() {
     assert!(texel.info.extinction_scale > 0.0);
     let predicted: f64 = (0..3)
         .map(|a| {
-            let d = texel_forest::inspect::texel::column_depths(&texel, 0, a);
+            let d = texel.column_depths(0, a);
             d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len() as f64
         })
         .sum::<f64>()
@@ -195,7 +195,7 @@ fn an_axis_aligned_box_bakes_to_an_opaque_block() {
     assert_eq!(l.dims, [8, 8, 8]);
     assert!((l.cell - 0.5).abs() < 1e-9);
     // Looking down y, the box covers columns x, z in 2..6.
-    let depth = texel_forest::inspect::texel::column_depths(&t, 0, 1);
+    let depth = t.column_depths(0, 1);
     for z in 0..8 {
         for x in 0..8 {
             let d = depth[z + 8 * x]; // columns along y are indexed z + nz * x
@@ -206,7 +206,7 @@ fn an_axis_aligned_box_bakes_to_an_opaque_block() {
         }
     }
     // Along x at mid height, z in 2..6: opaque through the box.
-    let depth_x = texel_forest::inspect::texel::column_depths(&t, 0, 0);
+    let depth_x = t.column_depths(0, 0);
     for z in 2..6 {
         assert!(depth_x[4 + 8 * z] > 4.0, "{}", depth_x[4 + 8 * z]);
     }

@@ -38,19 +38,11 @@ pub fn gradient(density: &[f32], dims: [usize; 3], cell: f64) -> Vec<[f32; 3]> {
     out
 }
 
-/// Outward unit normal from a density gradient, or `None` where the gradient vanishes (uniform
-/// interiors, empty space, isolated symmetric cells): there is no preferred direction to shade
-/// with, and the renderer uses its direction-free fallback instead.
-pub fn normal(gradient: [f32; 3]) -> Option<[f32; 3]> {
-    let [x, y, z] = gradient.map(|c| c as f64);
-    let length = (x * x + y * y + z * z).sqrt();
-    (length > 1e-12 && length.is_finite())
-        .then(|| [-x / length, -y / length, -z / length].map(|c| c as f32))
-}
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::volume::normal;
 
     /// The test: Sobel normals of an analytic sphere density point outward.
     #[test]

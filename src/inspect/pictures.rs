@@ -4,7 +4,6 @@
 
 use image::RgbImage;
 
-use crate::bake::sobel;
 use crate::color::{ramp, to_srgb8};
 use crate::volume::{Level, Texel};
 
@@ -64,7 +63,7 @@ fn cell_albedo(l: &Level, i: usize) -> [f32; 3] {
 }
 
 fn cell_normal(l: &Level, i: usize) -> Option<[f32; 3]> {
-    sobel::normal(std::array::from_fn(|c| {
+    crate::volume::normal(std::array::from_fn(|c| {
         l.gradient[0][i][c] + l.gradient[1][i][c]
     }))
 }

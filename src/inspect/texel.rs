@@ -6,7 +6,6 @@ use serde::Serialize;
 
 pub use super::FileFacts;
 use super::printable;
-use crate::bake::sobel;
 use crate::hex::hex;
 use crate::provenance::SourceFile;
 use crate::volume::{BakeParameters, DensityModel, MaterialPart, Texel};
@@ -91,24 +90,6 @@ fn stats(
     }
 }
 
-/// Optical depth of every level-0 column along `axis`, in model units.
-pub fn column_depths(texel: &Texel, level: usize, axis: usize) -> Vec<f64> {
-    let l = &texel.levels[level];
-    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-    let mut depth = vec![0.0; l.dims[u] * l.dims[v]];
-    let s = texel.info.extinction_scale * l.cell;
-    for z in 0..l.dims[2] {
-        for y in 0..l.dims[1] {
-            for x in 0..l.dims[0] {
-                let c = [x, y, z];
-                let i = l.index(x, y, z);
-                depth[c[u] + l.dims[u] * c[v]] += s * (l.density[0][i] + l.density[1][i]) as f64;
-            }
-        }
-    }
-    depth
-}
-
 pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
     let info = &texel.info;
     let l0 = &texel.levels[0];
@@ -165,11 +146,11 @@ pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
         .filter(|&i| l0.density[0][i] + l0.density[1][i] > 0.0)
         .filter(|&i| {
             let g = [0, 1, 2].map(|c| l0.gradient[0][i][c] + l0.gradient[1][i][c]);
-            sobel::normal(g).is_none()
+            crate::volume::normal(g).is_none()
         })
         .count();
     let coverage_texture = [0, 1, 2].map(|a| {
-        let d = column_depths(texel, 0, a);
+        let d = texel.column_depths(0, a);
         d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len() as f64
     });
     Summary {

@@ -32,7 +32,6 @@ use std::collections::BinaryHeap;
 
 use glam::Vec3;
 
-use super::sampler;
 use super::scene::{Instance, Scene};
 use crate::geom::{NodeContent, Ray};
 use crate::rng;
@@ -294,7 +293,7 @@ pub fn transmittance(
                 exit
             };
             let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
-            let d = sampler::density(level, a.c0 + a.dc * ts);
+            let d = level.density_at(a.c0 + a.dc * ts);
             depth += a.sigma_scale * (d[0] + foliage * d[1]) * (end - t);
             if depth > opaque {
                 // Stops the traversal: nothing further can make the light visible.
@@ -374,7 +373,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         for a in &walk.active {
             let inst = &scene.instances[a.instance as usize];
             let look = &scene.looks[inst.look as usize];
-            let f = sampler::fetch(&scene.texels[look.texel].levels[a.level], a.c0 + a.dc * ts);
+            let f = scene.texels[look.texel].levels[a.level].fetch(a.c0 + a.dc * ts);
             let (wood, foliage) = (
                 a.sigma_scale * f.density[0],
                 a.sigma_scale * look.foliage * f.density[1],

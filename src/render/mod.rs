@@ -11,7 +11,6 @@ pub mod film;
 pub mod integrate;
 pub mod load;
 pub mod mesh;
-pub mod sampler;
 pub mod scene;
 
 use rayon::prelude::*;
