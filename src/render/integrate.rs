@@ -27,13 +27,11 @@
 //! Carlo), whose extinction, colour and normal stand for the segment: the segment transmits
 //! exp(-sigma length) and adds T (1 - that) S.
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
-
 use glam::Vec3;
 
-use super::scene::{Instance, Scene};
-use crate::geom::{NodeContent, Ray};
+use super::instances::{Instance, Intervals};
+use super::scene::Scene;
+use crate::geom::Ray;
 use crate::rng;
 
 /// How finely and how far rays are followed.
@@ -108,7 +106,7 @@ impl Active {
     /// Instance `i` as `ray` meets it (leaving at `exit`), where the ray's footprint is
     /// `footprint` metres: the mip level whose cells match it, and the ray in that level's cells.
     fn new(scene: &Scene, i: u32, ray: &Ray, exit: f32, footprint: f32, lod_bias: f32) -> Active {
-        let inst: &Instance = &scene.instances[i as usize];
+        let inst: &Instance = scene.instances.get(i);
         let look = &scene.looks[inst.look as usize];
         let texel = &scene.texels[look.texel];
         let cell0 = texel.levels[0].cell as f32;
@@ -128,23 +126,12 @@ impl Active {
     }
 }
 
-#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-enum Item {
-    Node(u32),
-    Instance(u32, u32), // instance, exit as ordered bits
-}
-
-/// f32 >= 0 as an integer with the same order.
-fn key(t: f32) -> u32 {
-    t.max(0.0).to_bits()
-}
-
-/// The front-to-back walk of the instances along one ray.
+/// The front-to-back walk of the instances along one ray: which are active (the ray is inside
+/// their box) at each point, and the mip level each is read at.
 struct Walk<'a> {
     scene: &'a Scene,
     ray: Ray,
-    inv: Vec3,
-    heap: BinaryHeap<Reverse<(u32, Item)>>,
+    intervals: Intervals<'a>,
     active: Vec<Active>,
     /// Cone: footprint (m) at distance t is t x spread + base.
     spread: f32,
@@ -161,76 +148,29 @@ impl<'a> Walk<'a> {
         base: f32,
         lod_bias: f32,
     ) -> Walk<'a> {
-        let inv = ray.dir.recip();
-        let mut walk = Walk {
+        Walk {
             scene,
             ray,
-            inv,
-            heap: BinaryHeap::new(),
+            intervals: scene.instances.intervals(ray, t_max),
             active: Vec::new(),
             spread,
             base,
             lod_bias,
-        };
-        if let Some((bounds, _)) = scene.bvh.node(0)
-            && let Some((enter, _)) = bounds.intersect(&ray, inv, 0.0, t_max)
-        {
-            walk.heap.push(Reverse((key(enter), Item::Node(0))));
         }
-        walk
     }
 
     /// Where the next instance or node begins, if any.
     fn next_entry(&self) -> Option<f32> {
-        self.heap.peek().map(|Reverse((t, _))| f32::from_bits(*t))
+        self.intervals.next_entry()
     }
 
-    /// Opens every node and activates every instance the ray has entered by `t`.
-    fn admit(&mut self, t: f32, t_max: f32) {
-        while let Some(&Reverse((enter, item))) = self.heap.peek() {
-            if f32::from_bits(enter) > t {
-                break;
-            }
-            self.heap.pop();
-            match item {
-                Item::Node(n) => match self.scene.bvh.node(n).map(|(_, c)| c) {
-                    Some(NodeContent::Inner(a, b)) => {
-                        for child in [a, b] {
-                            if let Some((bounds, _)) = self.scene.bvh.node(child)
-                                && let Some((e, _)) =
-                                    bounds.intersect(&self.ray, self.inv, 0.0, t_max)
-                            {
-                                self.heap.push(Reverse((key(e), Item::Node(child))));
-                            }
-                        }
-                    }
-                    Some(NodeContent::Leaf(items)) => {
-                        for &i in items {
-                            if let Some((e, x)) = instance_interval(self.scene, &self.ray, i, t_max)
-                            {
-                                self.heap.push(Reverse((key(e), Item::Instance(i, key(x)))));
-                            }
-                        }
-                    }
-                    None => {}
-                },
-                Item::Instance(i, exit) => {
-                    self.activate(i, f32::from_bits(enter), f32::from_bits(exit))
-                }
-            }
+    /// Activates every instance the ray has entered by `t`.
+    fn admit(&mut self, t: f32) {
+        while let Some((i, enter, exit)) = self.intervals.next_entered(t) {
+            let footprint = enter * self.spread + self.base;
+            let a = Active::new(self.scene, i, &self.ray, exit, footprint, self.lod_bias);
+            self.active.push(a);
         }
-    }
-
-    fn activate(&mut self, i: u32, enter: f32, exit: f32) {
-        let a = Active::new(
-            self.scene,
-            i,
-            &self.ray,
-            exit,
-            enter * self.spread + self.base,
-            self.lod_bias,
-        );
-        self.active.push(a);
     }
 
     fn retire(&mut self, t: f32) {
@@ -241,7 +181,7 @@ impl<'a> Walk<'a> {
     /// the ray is inside some instance, else the next instance's entry; `None` past `t_max`.
     fn advance(&mut self, mut t: f32, t_max: f32) -> Option<f32> {
         loop {
-            self.admit(t, t_max);
+            self.admit(t);
             self.retire(t);
             if !self.active.is_empty() {
                 return Some(t);
@@ -276,12 +216,12 @@ pub fn transmittance(
     let opaque = -march.cutoff.ln();
     let lod_bias = march.lod_bias + march.shadow_lod;
     let mut depth = 0.0f32;
-    scene.bvh.traverse(&ray, 0.0, t_max, |i, _| {
-        let (enter, exit) = instance_interval(scene, &ray, i, t_max)?;
+    scene.instances.visit(&ray, t_max, |i, _, _| {
+        let (enter, exit) = scene.instances.interval(i, &ray, t_max)?;
         let a = Active::new(scene, i, &ray, exit, footprint, lod_bias);
-        let texel = &scene.texels[scene.looks[scene.instances[i as usize].look as usize].texel];
-        let level = &texel.levels[a.level];
-        let foliage = scene.looks[scene.instances[i as usize].look as usize].foliage;
+        let look = &scene.looks[scene.instances.get(i).look as usize];
+        let level = &scene.texels[look.texel].levels[a.level];
+        let foliage = look.foliage;
         let length = a.step * march.step;
         let mut t = enter;
         let mut segment = 0u64;
@@ -305,17 +245,6 @@ pub fn transmittance(
         None
     });
     if depth > opaque { 0.0 } else { (-depth).exp() }
-}
-
-/// The part of `ray` inside instance `i`'s oriented box, up to `t_max`.
-fn instance_interval(scene: &Scene, ray: &Ray, i: u32, t_max: f32) -> Option<(f32, f32)> {
-    let inst = &scene.instances[i as usize];
-    let b = &scene.model_boxes[scene.looks[inst.look as usize].texel];
-    let local = Ray {
-        origin: inst.to_model(ray.origin),
-        dir: inst.dir_to_model(ray.dir),
-    };
-    b.intersect(&local, local.dir.recip(), 0.0, t_max)
 }
 
 /// The end of the segment starting at `t` (one step of the finest active texture, cut at the
@@ -371,7 +300,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
             .map(|a| a.step)
             .fold(f32::INFINITY, f32::min);
         for a in &walk.active {
-            let inst = &scene.instances[a.instance as usize];
+            let inst = scene.instances.get(a.instance);
             let look = &scene.looks[inst.look as usize];
             let f = scene.texels[look.texel].levels[a.level].fetch(a.c0 + a.dc * ts);
             let (wood, foliage) = (

@@ -11,7 +11,8 @@
 use glam::Vec3;
 
 use super::integrate::{Radiance, shade, shade_ground, sun_radiance};
-use super::scene::{Instance, Scene};
+use super::instances::Instance;
+use super::scene::Scene;
 use crate::geom::{Ray, TriangleBvh, TriangleHit};
 use crate::import::Mesh;
 use crate::mesh_tracer::covers;
@@ -57,7 +58,7 @@ struct TreeHit {
 /// the leaf fraction (the same leaves stay on a tree for every ray).
 fn present(scene: &Scene, i: u32, tree: &TreeMesh, t: u32, w: [f32; 3], key: u64) -> bool {
     if tree.foliage[t as usize] {
-        let fraction = scene.looks[scene.instances[i as usize].look as usize].foliage;
+        let fraction = scene.looks[scene.instances.get(i).look as usize].foliage;
         if fraction < 1.0
             && rng::unit(rng::hash3(u64::from(i), u64::from(t), LEAF_STREAM)) >= f64::from(fraction)
         {
@@ -71,32 +72,20 @@ fn tree_of<'a>(scene: &'a Scene, inst: &Instance) -> &'a TreeMesh {
     &scene.meshes[scene.looks[inst.look as usize].texel]
 }
 
-fn local_ray(inst: &Instance, ray: &Ray) -> Ray {
-    Ray {
-        origin: inst.to_model(ray.origin),
-        dir: inst.dir_to_model(ray.dir),
-    }
-}
-
 /// The nearest tree surface along `ray` before `t_max`.
 fn nearest_tree(scene: &Scene, ray: &Ray, t_max: f32, key: u64) -> Option<TreeHit> {
-    let mut best: Option<TreeHit> = None;
-    scene.bvh.traverse(ray, 0.0, t_max, |i, t_max| {
-        let inst = &scene.instances[i as usize];
-        let tree = tree_of(scene, inst);
-        let (triangle, hit) =
-            tree.triangles
-                .nearest(&local_ray(inst, ray), 0.0, t_max, |t, h| {
-                    present(scene, i, tree, t, h.w, key)
-                })?;
-        best = Some(TreeHit {
-            instance: i,
-            triangle,
-            hit,
-        });
-        Some(hit.t)
-    });
-    best
+    let (instance, (triangle, hit)) = scene.instances.nearest(ray, t_max, |i, local, t_max| {
+        let tree = tree_of(scene, scene.instances.get(i));
+        let (triangle, hit) = tree.triangles.nearest(local, 0.0, t_max, |t, h| {
+            present(scene, i, tree, t, h.w, key)
+        })?;
+        Some((hit.t, (triangle, hit)))
+    })?;
+    Some(TreeHit {
+        instance,
+        triangle,
+        hit,
+    })
 }
 
 /// Whether the sun is hidden from `origin` by the terrain or any tree.
@@ -110,22 +99,12 @@ fn sun_hidden(scene: &Scene, origin: Vec3, key: u64) -> bool {
     {
         return true;
     }
-    let mut hidden = false;
-    scene.bvh.traverse(&ray, 0.0, f32::INFINITY, |i, t_max| {
-        let inst = &scene.instances[i as usize];
-        let tree = tree_of(scene, inst);
-        if tree
-            .triangles
-            .occluded(&local_ray(inst, &ray), 0.0, t_max, |t, h| {
-                present(scene, i, tree, t, h.w, key)
-            })
-        {
-            hidden = true;
-            return Some(0.0);
-        }
-        None
-    });
-    hidden
+    scene.instances.any(&ray, f32::INFINITY, |i, local, t_max| {
+        let tree = tree_of(scene, scene.instances.get(i));
+        tree.triangles.occluded(local, 0.0, t_max, |t, h| {
+            present(scene, i, tree, t, h.w, key)
+        })
+    })
 }
 
 /// Radiance along the ray from the eye in direction `dir`, from the polygon models.
@@ -145,7 +124,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
     };
     let shadow_key = rng::mix64(key ^ 0x73);
     let (normal, albedo, t, species) = if let Some(h) = nearest_tree(scene, &ray, t_max, key) {
-        let inst = &scene.instances[h.instance as usize];
+        let inst = scene.instances.get(h.instance);
         let tree = tree_of(scene, inst);
         let look = &scene.looks[inst.look as usize];
         let n = inst

@@ -8,6 +8,7 @@
 
 pub mod camera;
 pub mod film;
+pub mod instances;
 pub mod integrate;
 pub mod load;
 pub mod mesh;

@@ -3,10 +3,11 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::geom::{Aabb, Bvh, Ray, TriangleBvh, TriangleHit, box_corners};
+use crate::geom::{Aabb, Ray, TriangleBvh, TriangleHit};
 use crate::import::Mesh;
 use crate::volume::Texel;
 
+use super::instances::{Instance, Instances};
 use super::mesh::TreeMesh;
 
 /// How a species looks on the rendered day.
@@ -29,51 +30,6 @@ pub struct Placed {
     /// Rotation about +Y, radians.
     pub rotation: f32,
     pub scale: f32,
-}
-
-/// A placed tree in the renderer's frame, with what its rays need precomputed.
-#[derive(Clone, Copy, Debug)]
-pub struct Instance {
-    pub look: u16,
-    pub position: Vec3,
-    pub cos: f32,
-    pub sin: f32,
-    pub scale: f32,
-}
-
-impl Instance {
-    /// Model-space point of a renderer-frame point.
-    #[inline]
-    pub fn to_model(&self, p: Vec3) -> Vec3 {
-        let d = (p - self.position) / self.scale;
-        // Inverse of a rotation by `angle` about +Y.
-        Vec3::new(
-            self.cos * d.x - self.sin * d.z,
-            d.y,
-            self.sin * d.x + self.cos * d.z,
-        )
-    }
-
-    /// Model-space direction of a renderer-frame direction (length divided by the scale).
-    #[inline]
-    pub fn dir_to_model(&self, d: Vec3) -> Vec3 {
-        let d = d / self.scale;
-        Vec3::new(
-            self.cos * d.x - self.sin * d.z,
-            d.y,
-            self.sin * d.x + self.cos * d.z,
-        )
-    }
-
-    /// Renderer-frame direction of a model-space direction (rotation only).
-    #[inline]
-    pub fn dir_to_world(&self, d: Vec3) -> Vec3 {
-        Vec3::new(
-            self.cos * d.x + self.sin * d.z,
-            d.y,
-            -self.sin * d.x + self.cos * d.z,
-        )
-    }
 }
 
 /// The sun: a direction and an irradiance.
@@ -178,10 +134,9 @@ pub struct Scene {
     pub origin: DVec3,
     pub texels: Vec<Texel>,
     pub looks: Vec<Look>,
-    pub instances: Vec<Instance>,
-    /// Per texel: its grid box in model space (the union over levels).
-    pub model_boxes: Vec<Aabb>,
-    pub bvh: Bvh,
+    /// The trees, each an instance of its look's texel (whose grid box, the union over
+    /// levels, is the instance's model box).
+    pub instances: Instances,
     /// Per texel, the polygon model it was baked from, for the mesh method (else empty).
     pub meshes: Vec<TreeMesh>,
     pub ground: Option<Ground>,
@@ -223,6 +178,7 @@ impl Scene {
                 let (sin, cos) = p.rotation.sin_cos();
                 Instance {
                     look: p.look,
+                    model: looks[p.look as usize].texel as u32,
                     position: (p.position - origin).as_vec3(),
                     cos,
                     sin,
@@ -230,22 +186,11 @@ impl Scene {
                 }
             })
             .collect();
-        let boxes: Vec<Aabb> = instances
-            .iter()
-            .map(|i| {
-                let b = model_boxes[looks[i.look as usize].texel];
-                let corners = box_corners(b.lo.to_array(), b.hi.to_array())
-                    .map(|m| i.position + i.dir_to_world(Vec3::from(m)) * i.scale);
-                Aabb::of_points(&corners)
-            })
-            .collect();
         Scene {
             origin,
             texels,
             looks,
-            bvh: Bvh::build(&boxes),
-            instances,
-            model_boxes,
+            instances: Instances::new(instances, model_boxes),
             meshes: Vec::new(),
             ground: ground.map(|m| Ground::new(m, origin)),
             sun,

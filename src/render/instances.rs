@@ -1,0 +1,257 @@
+//! The forest as the renderer queries it: every tree an instance of one model (a texture's
+//! grid box, or the polygon model it was baked from), turned about +Y, scaled and placed, all
+//! under one bounding volume hierarchy. Every query hands its caller each instance it meets
+//! with the ray carried into that instance's model space, as pbrt's `TransformedPrimitive`
+//! does, so no caller transforms rays itself:
+//!
+//! - [`Instances::visit`]: every instance the ray meets, in no particular order (shadow rays:
+//!   optical depth is a sum; any-hit and nearest-hit queries);
+//! - [`Instances::nearest`] and [`Instances::any`]: the closest hit, or whether there is one;
+//! - [`Instances::intervals`]: the instances' intervals along the ray, front to back, as the
+//!   ray advances (view rays through overlapping volumes).
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::Vec3;
+
+use crate::geom::{Aabb, Bvh, NodeContent, Ray, box_corners};
+
+/// A placed tree in the renderer's frame.
+#[derive(Clone, Copy, Debug)]
+pub struct Instance {
+    /// Index into the scene's looks (species on the day).
+    pub look: u16,
+    /// Index into [`Instances`]' model boxes.
+    pub model: u32,
+    pub position: Vec3,
+    pub cos: f32,
+    pub sin: f32,
+    pub scale: f32,
+}
+
+impl Instance {
+    /// Model-space point of a renderer-frame point.
+    #[inline]
+    pub fn to_model(&self, p: Vec3) -> Vec3 {
+        let d = (p - self.position) / self.scale;
+        // Inverse of a rotation by `angle` about +Y.
+        Vec3::new(
+            self.cos * d.x - self.sin * d.z,
+            d.y,
+            self.sin * d.x + self.cos * d.z,
+        )
+    }
+
+    /// Model-space direction of a renderer-frame direction (length divided by the scale, so a
+    /// distance along the local ray is the same `t` as along the world ray).
+    #[inline]
+    pub fn dir_to_model(&self, d: Vec3) -> Vec3 {
+        let d = d / self.scale;
+        Vec3::new(
+            self.cos * d.x - self.sin * d.z,
+            d.y,
+            self.sin * d.x + self.cos * d.z,
+        )
+    }
+
+    /// Renderer-frame direction of a model-space direction (rotation only).
+    #[inline]
+    pub fn dir_to_world(&self, d: Vec3) -> Vec3 {
+        Vec3::new(
+            self.cos * d.x + self.sin * d.z,
+            d.y,
+            -self.sin * d.x + self.cos * d.z,
+        )
+    }
+
+    /// `ray` in the instance's model space, with the same parameter `t`.
+    #[inline]
+    pub fn local_ray(&self, ray: &Ray) -> Ray {
+        Ray {
+            origin: self.to_model(ray.origin),
+            dir: self.dir_to_model(ray.dir),
+        }
+    }
+}
+
+/// Every instance, its model's box, and the hierarchy over their world boxes.
+#[derive(Clone, Debug)]
+pub struct Instances {
+    list: Vec<Instance>,
+    /// Per model: its box in model space.
+    model_boxes: Vec<Aabb>,
+    bvh: Bvh,
+}
+
+impl Instances {
+    /// `list`'s instances of models whose model-space boxes are `model_boxes`.
+    pub fn new(list: Vec<Instance>, model_boxes: Vec<Aabb>) -> Instances {
+        let boxes: Vec<Aabb> = list
+            .iter()
+            .map(|i| {
+                let b = model_boxes[i.model as usize];
+                let corners = box_corners(b.lo.to_array(), b.hi.to_array())
+                    .map(|m| i.position + i.dir_to_world(Vec3::from(m)) * i.scale);
+                Aabb::of_points(&corners)
+            })
+            .collect();
+        Instances {
+            bvh: Bvh::build(&boxes),
+            list,
+            model_boxes,
+        }
+    }
+
+    #[inline]
+    pub fn get(&self, i: u32) -> &Instance {
+        &self.list[i as usize]
+    }
+
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// The part of `ray` inside instance `i`'s model box, before `t_max`.
+    pub fn interval(&self, i: u32, ray: &Ray, t_max: f32) -> Option<(f32, f32)> {
+        let inst = self.get(i);
+        let local = inst.local_ray(ray);
+        self.model_boxes[inst.model as usize].intersect(&local, local.dir.recip(), 0.0, t_max)
+    }
+
+    /// Calls `f(i, local ray, t_max)` for every instance whose world box `ray` meets before
+    /// `t_max`, in no particular order. `f` returns `Some(t)` to shorten the ray to `t` (a hit
+    /// nearer than any so far; `Some(0.0)` ends the traversal), `None` to go on.
+    pub fn visit(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        mut f: impl FnMut(u32, &Ray, f32) -> Option<f32>,
+    ) {
+        self.bvh.traverse(ray, 0.0, t_max, |i, t_max| {
+            f(i, &self.get(i).local_ray(ray), t_max)
+        });
+    }
+
+    /// The nearest hit along `ray` before `t_max`: `hit(i, local ray, t_max)` gives an
+    /// instance's nearest hit before `t_max`, as its distance and what the caller keeps of it.
+    pub fn nearest<H>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        mut hit: impl FnMut(u32, &Ray, f32) -> Option<(f32, H)>,
+    ) -> Option<(u32, H)> {
+        let mut best = None;
+        self.visit(ray, t_max, |i, local, t_max| {
+            let (t, h) = hit(i, local, t_max)?;
+            best = Some((i, h));
+            Some(t)
+        });
+        best
+    }
+
+    /// Whether any instance has a hit before `t_max`: `hit(i, local ray, t_max)`.
+    pub fn any(&self, ray: &Ray, t_max: f32, mut hit: impl FnMut(u32, &Ray, f32) -> bool) -> bool {
+        let mut found = false;
+        self.visit(ray, t_max, |i, local, t_max| {
+            found = hit(i, local, t_max);
+            found.then_some(0.0)
+        });
+        found
+    }
+
+    /// The instances' intervals along `ray` before `t_max`, front to back, opened lazily as the
+    /// ray advances.
+    pub fn intervals(&self, ray: Ray, t_max: f32) -> Intervals<'_> {
+        let inv = ray.dir.recip();
+        let mut heap = BinaryHeap::new();
+        if let Some((bounds, _)) = self.bvh.node(0)
+            && let Some((enter, _)) = bounds.intersect(&ray, inv, 0.0, t_max)
+        {
+            heap.push(Reverse((order_key(enter), Item::Node(0))));
+        }
+        Intervals {
+            instances: self,
+            ray,
+            inv,
+            t_max,
+            heap,
+        }
+    }
+}
+
+/// f32 >= 0 as an integer with the same order.
+fn order_key(t: f32) -> u32 {
+    t.max(0.0).to_bits()
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Item {
+    Node(u32),
+    /// An instance, and its exit as ordered bits.
+    Instance(u32, u32),
+}
+
+/// Instances along one ray in order of entry: nodes of the hierarchy and instances' boxes
+/// wait in a heap keyed by where the ray enters them.
+pub struct Intervals<'a> {
+    instances: &'a Instances,
+    ray: Ray,
+    inv: Vec3,
+    t_max: f32,
+    heap: BinaryHeap<Reverse<(u32, Item)>>,
+}
+
+impl Intervals<'_> {
+    /// Where the ray enters the next node or instance not yet handed out, if any.
+    pub fn next_entry(&self) -> Option<f32> {
+        self.heap.peek().map(|Reverse((t, _))| f32::from_bits(*t))
+    }
+
+    /// The next instance the ray has entered by `t`, as (instance, enter, exit); `None` when
+    /// every instance entered by `t` has been handed out.
+    pub fn next_entered(&mut self, t: f32) -> Option<(u32, f32, f32)> {
+        while let Some(&Reverse((enter, item))) = self.heap.peek() {
+            if f32::from_bits(enter) > t {
+                return None;
+            }
+            self.heap.pop();
+            match item {
+                Item::Instance(i, exit) => {
+                    return Some((i, f32::from_bits(enter), f32::from_bits(exit)));
+                }
+                Item::Node(n) => self.open(n),
+            }
+        }
+        None
+    }
+
+    /// Queues node `n`'s children, or its instances' intervals.
+    fn open(&mut self, n: u32) {
+        let bvh = &self.instances.bvh;
+        match bvh.node(n).map(|(_, c)| c) {
+            Some(NodeContent::Inner(a, b)) => {
+                for child in [a, b] {
+                    if let Some((bounds, _)) = bvh.node(child)
+                        && let Some((e, _)) = bounds.intersect(&self.ray, self.inv, 0.0, self.t_max)
+                    {
+                        self.heap.push(Reverse((order_key(e), Item::Node(child))));
+                    }
+                }
+            }
+            Some(NodeContent::Leaf(items)) => {
+                for &i in items {
+                    if let Some((e, x)) = self.instances.interval(i, &self.ray, self.t_max) {
+                        self.heap
+                            .push(Reverse((order_key(e), Item::Instance(i, order_key(x)))));
+                    }
+                }
+            }
+            None => {}
+        }
+    }
+}
