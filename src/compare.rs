@@ -94,6 +94,9 @@ impl Rgba {
             .all_channels()
             .all_layers()
             .all_attributes()
+            // Decoded on this thread: a panic inside exr (none is known) would unwind to the
+            // caller instead of aborting the process from exr's own thread pool.
+            .non_parallel()
             .from_buffered(reader)
             .map_err(|e| read_error(e.to_string()))?;
         let layer = image

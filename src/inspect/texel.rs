@@ -4,8 +4,7 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-pub use super::FileFacts;
-use super::printable;
+use super::{FileFacts, printable};
 use crate::hex::hex;
 use crate::provenance::SourceFile;
 use crate::volume::{BakeParameters, DensityModel, MaterialPart, Texel};
