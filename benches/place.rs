@@ -7,9 +7,9 @@ use std::time::Instant;
 use texel_forest::formats::instances::{self, ForestInfo, SpeciesRecord};
 use texel_forest::place::{self, PlaceSettings};
 use texel_forest::procedural::{builder, terrain};
+use texel_forest::provenance::SourceFile;
 use texel_forest::species::SpeciesFile;
 use texel_forest::terrain::Terrain;
-use texel_forest::provenance::SourceFile;
 
 fn main() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));

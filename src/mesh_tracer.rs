@@ -5,9 +5,6 @@ use crate::geom::{Ray, TriangleBvh, TriangleHit};
 use crate::import::{AlphaMode, Mesh};
 use crate::rng;
 
-/// Key of the random stream that decides coverage of alpha-blended surfaces.
-const BLEND_STREAM: u64 = 0x7472_6163_6564;
-
 /// Whether the surface of triangle `t` of `mesh` is there at barycentric `w` (alpha mask or,
 /// for blended materials, alpha as a coverage probability keyed by `key`).
 pub fn covers(mesh: &Mesh, t: u32, w: [f32; 3], key: u64) -> bool {
@@ -19,7 +16,7 @@ pub fn covers(mesh: &Mesh, t: u32, w: [f32; 3], key: u64) -> bool {
     let alpha = mesh.base_color(tri, w).w;
     match alpha_mode {
         AlphaMode::Mask { cutoff } => alpha >= cutoff,
-        _ => alpha as f64 > rng::unit(rng::hash3(key, t as u64, BLEND_STREAM)),
+        _ => alpha as f64 > rng::unit(rng::hash3(key, t as u64, rng::purpose::MESH_BLEND)),
     }
 }
 

@@ -1,6 +1,51 @@
 //! Counter-based random numbers: every draw is a pure function of a key (seed, stream, index),
 //! so results never depend on thread scheduling or on the order work is done in.
 
+/// What each random draw is for. Every stream of the program is keyed by one of these (most
+/// spell their purpose in ASCII), so that no two purposes share numbers and a reader can see
+/// at a glance which draws are which. The values are part of the output: changing one changes
+/// forests and images.
+pub mod purpose {
+    // Baking.
+    /// Whether an alpha-blended surface stops a scan ray.
+    pub const BAKE_BLEND: u64 = 0x626c_656e_6473;
+    // Placement.
+    /// A band's own stream of darts.
+    pub const BAND: u64 = 0x6261_6e64;
+    /// Growth: darts in the annulus around a tree.
+    pub const GROW: u64 = 0x6772_6f77;
+    /// Which active tree grows next.
+    pub const PICK: u64 = 0x7069_636b;
+    /// The gap scan's darts.
+    pub const SCAN: u64 = 0x7363_616e;
+    /// A dart's species, height, rotation and variation.
+    pub const SPECIES: u64 = 0x7370_6563;
+    pub const HEIGHT: u64 = 0x6865_6967;
+    pub const ROTATION: u64 = 0x726f_7461;
+    pub const VARIATION: u64 = 0x7661_7269;
+    // Rendering: `hash3(pixel key, sample, 0)` keys a sample; its ray's key is mixed from it.
+    /// A pixel's stream: `hash3(seed, y << 32 | x, PIXEL)`.
+    pub const PIXEL: u64 = 0x0070_6978;
+    /// XOR-ed into a sample's key to key its ray.
+    pub const RAY: u64 = 0x5a;
+    /// Per view-ray segment `hash3(ray key, segment, ..)`: where in the segment the sample is,
+    /// whether its shadow ray is cast (roulette), and the shadow ray's own stream.
+    pub const SEGMENT_JITTER: u64 = 0x72;
+    pub const SEGMENT_ROULETTE: u64 = 0x7272;
+    pub const SEGMENT_LIGHT: u64 = 0x6c;
+    /// The terrain hit's shadow ray: `hash3(ray key, GROUND, ..)` with the segment purposes.
+    pub const GROUND: u64 = 0x67;
+    /// The mesh method: a ray's shadow stream (XOR-ed into its key), which leaves a tree keeps
+    /// at a partial leaf fraction, and alpha-blended triangles.
+    pub const MESH_SHADOW: u64 = 0x73;
+    pub const MESH_LEAF: u64 = 0x6c65_6166;
+    pub const MESH_BLEND: u64 = 0x7472_6163_6564;
+    // Measurement (accuracy report, tests).
+    pub const SILHOUETTE_PIXEL: u64 = 0x0073_696c;
+    pub const SILHOUETTE_DIRECTION: u64 = 0x0064_6972;
+    pub const SILHOUETTE_AXIS: u64 = 0x6178_6973;
+}
+
 /// SplitMix64's finaliser: a bijective 64-bit mix with full avalanche.
 pub fn mix64(mut x: u64) -> u64 {
     x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);

@@ -121,7 +121,7 @@ pub fn compare(
             let (pa, pb) = (p % na, p / na);
             let (mut hits, mut transmitted) = (0usize, 0.0f64);
             for s in 0..rays * rays {
-                let key = rng::hash3(p as u64, s as u64, 0x0073_696c);
+                let key = rng::hash3(p as u64, s as u64, rng::purpose::SILHOUETTE_PIXEL);
                 let ja = (s % rays) as f64 + rng::unit(key);
                 let jb = (s / rays) as f64 + rng::unit(rng::mix64(key));
                 let a = a0 + (pa as f64 + ja / rays as f64) * frame.pixel;
@@ -151,7 +151,7 @@ pub fn compare(
 
 /// `n` directions spread uniformly over the sphere, the same for every caller.
 pub fn random_directions(n: usize, seed: u64) -> Vec<DVec3> {
-    let mut s = rng::Stream::new(seed, 0x0064_6972);
+    let mut s = rng::Stream::new(seed, rng::purpose::SILHOUETTE_DIRECTION);
     (0..n)
         .map(|_| {
             let z = s.range(-1.0, 1.0);
@@ -182,7 +182,11 @@ pub fn axis_columns(
             let (cu, cv) = (c % l.dims[u], c / l.dims[u]);
             let mut hits = 0;
             for s in 0..rays * rays {
-                let key = rng::hash3(c as u64, s as u64, 0x6178_6973 + axis as u64);
+                let key = rng::hash3(
+                    c as u64,
+                    s as u64,
+                    rng::purpose::SILHOUETTE_AXIS + axis as u64,
+                );
                 let mut o = origin;
                 o[u] += (cu as f64 + ((s % rays) as f64 + rng::unit(key)) / rays as f64) * l.cell;
                 o[v] += (cv as f64

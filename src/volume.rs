@@ -325,4 +325,3 @@ mod tests {
         assert_eq!(l.density_at(Vec3::new(1.0, 2.1, 1.0)), [0.0; 2]);
     }
 }
-

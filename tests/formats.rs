@@ -111,8 +111,8 @@ fn golden_bytes() -> Vec<u8> {
 fn valid_forest_file() -> Vec<u8> {
     use texel_forest::formats::instances::{Forest, ForestInfo, SpeciesRecord};
     use texel_forest::place::Instance;
-    use texel_forest::species::SpeciesFile;
     use texel_forest::provenance::SourceFile;
+    use texel_forest::species::SpeciesFile;
     let species = SpeciesFile::load(&common::fixture("species/forest.json")).unwrap();
     let s = &species.species[0];
     let source = SourceFile {

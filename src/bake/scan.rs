@@ -26,9 +26,6 @@ use crate::rng;
 /// Sub-fine-cell precision of the fixed-point rasteriser.
 const SUBPIXEL: f64 = 256.0;
 
-/// Key of the random stream that decides coverage of alpha-blended surfaces.
-const BLEND_STREAM: u64 = 0x626c_656e_6473;
-
 /// Bits of a fine cell in [`AxisScan::fine`].
 pub const INSIDE_ALL: u8 = 1;
 pub const INSIDE_WOOD: u8 = 2;
@@ -411,7 +408,7 @@ fn rasterize(
                 AlphaMode::Mask { cutoff } => color.w >= cutoff,
                 AlphaMode::Blend => {
                     let id = (((axis as u64) << 40) | ((i as u64) << 20)) | j as u64;
-                    color.w as f64 > rng::unit(rng::hash3(BLEND_STREAM, id, t as u64))
+                    color.w as f64 > rng::unit(rng::hash3(rng::purpose::BAKE_BLEND, id, t as u64))
                 }
             };
             if covered {

@@ -38,7 +38,6 @@ pub fn gradient(density: &[f32], dims: [usize; 3], cell: f64) -> Vec<[f32; 3]> {
     out
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -168,8 +168,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     }
     outputs.set(exr_out, exr.bytes);
     if let Some(p) = preview_out {
-        let png =
-            texel_forest::png::encode(&film.preview(Vec3::new(0.55, 0.68, 0.85)));
+        let png = texel_forest::png::encode(&film.preview(Vec3::new(0.55, 0.68, 0.85)));
         outputs.set(p, png);
     }
     if let Some(d) = dep_out {

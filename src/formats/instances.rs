@@ -4,8 +4,8 @@ use bincode::{Decode, Encode};
 
 use super::container::{self, ContainerError, header_config};
 use crate::limits::{LimitError, Limits};
-use crate::species::{Seasons, Traits};
 use crate::provenance::SourceFile;
+use crate::species::{Seasons, Traits};
 
 pub const MAGIC: &[u8; 8] = b"\x89TXINST\n";
 pub const MAJOR: u16 = 1;

@@ -8,9 +8,9 @@ use gltf_json as json;
 use sha2::{Digest, Sha256};
 
 use super::ImportError;
-use crate::provenance::Source;
 use crate::input::{self, InputError, MAX_GLTF};
 use crate::limits::Limits;
+use crate::provenance::Source;
 
 /// Extensions that change geometry or data layout and that we cannot decode.
 const COMPRESSION_EXTENSIONS: &[&str] = &[

@@ -6,10 +6,10 @@ use image::RgbImage;
 use serde::Serialize;
 
 use super::printable;
-use crate::hex::hex;
 use crate::formats::instances::Forest;
-use crate::terrain::{Heightfield, Terrain, hillshade};
+use crate::hex::hex;
 use crate::provenance::SourceFile;
+use crate::terrain::{Heightfield, Terrain, hillshade};
 
 /// Map colours of species 0, 1, ... (ColorBrewer "Dark2", then repeating).
 const PALETTE: [[u8; 3]; 8] = [

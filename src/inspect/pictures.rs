@@ -159,4 +159,3 @@ pub fn projection(texel: &Texel, level: usize, axis: usize) -> RgbImage {
     }
     img
 }
-

@@ -11,10 +11,10 @@ use serde::Serialize;
 use super::printable;
 use crate::color::ramp;
 use crate::place::{self, Habitat, PlaceError, PlaceSettings};
+use crate::provenance::SourceFile;
 use crate::species::SpeciesFile;
 use crate::terrain::survey::{self, Survey};
 use crate::terrain::{Terrain, hillshade};
-use crate::provenance::SourceFile;
 
 #[derive(Serialize, Debug)]
 pub struct TerrainSummary {

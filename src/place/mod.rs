@@ -10,8 +10,8 @@ pub mod poisson;
 
 use rayon::prelude::*;
 
-use crate::formats::instances::{QUANTUM, SCALE_STEPS};
 pub use crate::formats::instances::Instance;
+use crate::formats::instances::{QUANTUM, SCALE_STEPS};
 use crate::rng;
 use crate::species::SpeciesFile;
 use crate::terrain::{Attributes, Heightfield, Terrain};
@@ -35,10 +35,6 @@ fn radius_range(species: &SpeciesFile) -> (f64, f64) {
 
 /// Largest height raster accepted (cells); pass a coarser `--cell` beyond it.
 const MAX_RASTER_CELLS: usize = 25_000_000;
-const SPECIES_DRAW: u64 = 0x7370_6563;
-const HEIGHT_DRAW: u64 = 0x6865_6967;
-const ROTATION_DRAW: u64 = 0x726f_7461;
-const VARIATION_DRAW: u64 = 0x7661_7269;
 
 #[derive(Clone, Debug)]
 pub struct PlaceSettings {
@@ -63,7 +59,6 @@ impl Default for PlaceSettings {
         }
     }
 }
-
 
 /// The result of placement, with what was derived on the way (for pictures and reports).
 pub struct Placement {
@@ -237,7 +232,7 @@ pub fn place(
             return None;
         }
         // Species in proportion to suitability, so stands mix where habitats overlap.
-        let mut u = rng::unit(rng::hash3(key, SPECIES_DRAW, 0)) * total;
+        let mut u = rng::unit(rng::hash3(key, rng::purpose::SPECIES, 0)) * total;
         let mut chosen = n_species - 1;
         for (i, &w) in weights[..n_species].iter().enumerate() {
             if u < w {
@@ -248,7 +243,7 @@ pub fn place(
         }
         let s = &species.species[chosen];
         let height = s.height.min
-            + (s.height.max - s.height.min) * rng::unit(rng::hash3(key, HEIGHT_DRAW, 0));
+            + (s.height.max - s.height.min) * rng::unit(rng::hash3(key, rng::purpose::HEIGHT, 0));
         Some((
             stored_radius_guard(s.radius(height)),
             (chosen as u8, height, key),
@@ -278,10 +273,10 @@ pub fn place(
             Some(Instance {
                 species: *species_index,
                 position: [disc.x, y, disc.z],
-                rotation: (rng::unit(rng::hash3(*key, ROTATION_DRAW, 0)) * std::f64::consts::TAU)
-                    as f32,
+                rotation: (rng::unit(rng::hash3(*key, rng::purpose::ROTATION, 0))
+                    * std::f64::consts::TAU) as f32,
                 scale: (height / model_heights[*species_index as usize]) as f32,
-                variation: (rng::hash3(*key, VARIATION_DRAW, 0) >> 48) as u16,
+                variation: (rng::hash3(*key, rng::purpose::VARIATION, 0) >> 48) as u16,
             })
         })
         .collect();

@@ -20,7 +20,7 @@
 
 use rayon::prelude::*;
 
-use crate::rng;
+use crate::rng::{self, purpose};
 
 /// Darts an active sample throws before it retires (Bridson's k).
 const ATTEMPTS: u32 = 20;
@@ -30,9 +30,6 @@ const SCAN_DARTS: u64 = 4;
 const WINDOW: usize = 32;
 /// Height of a band, in largest radii.
 const BAND: f64 = 64.0;
-const GROW: u64 = 0x6772_6f77;
-const PICK: u64 = 0x7069_636b;
-const SCAN: u64 = 0x7363_616e;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Disc {
@@ -103,7 +100,7 @@ pub fn sample<T: Send>(
                     .flatten()
                     .copied()
                     .collect();
-                let key = rng::hash3(seed, 0x6261_6e64, b as u64);
+                let key = rng::hash3(seed, purpose::BAND, b as u64);
                 (
                     b,
                     sample_band(
@@ -170,9 +167,9 @@ impl<T> Strip<T> {
     }
 }
 
-/// Samples one band, respecting the discs of samples already made beside it.
-/// Samples one band; stops at `cap` samples (no band needs more than the whole forest may
-/// keep, and a dense species file must not fill memory before the cap applies).
+/// Samples one band, respecting the discs of samples already made beside it; stops at `cap`
+/// samples (no band needs more than the whole forest may keep, and a dense species file must
+/// not fill memory before the cap applies).
 fn sample_band<T>(
     region: [f64; 4],
     neighbours: &[Disc],
@@ -203,7 +200,8 @@ fn sample_band<T>(
             // A random one of the most recently added: growth stays on a compact front, which
             // keeps the grid's working set in cache, yet is not a single ordered wave.
             let window = band.active.len().min(WINDOW);
-            let slot = band.active.len() - 1 - rng::hash3(seed, PICK, step) as usize % window;
+            let slot =
+                band.active.len() - 1 - rng::hash3(seed, purpose::PICK, step) as usize % window;
             let parent = band.active[slot] as usize;
             step += 1;
             let p = band.discs[parent];
@@ -211,7 +209,7 @@ fn sample_band<T>(
             for _ in 0..ATTEMPTS {
                 let attempt = band.tries[parent];
                 band.tries[parent] += 1;
-                let key = rng::hash3(seed ^ GROW, parent as u64, attempt as u64);
+                let key = rng::hash3(seed ^ purpose::GROW, parent as u64, attempt as u64);
                 // A point of the annulus between r and 2r, uniform over its area, by
                 // rejection from the enclosing square (no trigonometry in the inner loop).
                 let mut k = key;
@@ -224,9 +222,9 @@ fn sample_band<T>(
                     if (0.25..=1.0).contains(&d2) {
                         break (u * 2.0 * p.r, v * 2.0 * p.r);
                     }
-                    k = rng::mix64(k ^ GROW);
+                    k = rng::mix64(k ^ purpose::GROW);
                 };
-                if band.try_dart(p.x + dx, p.z + dz, rng::mix64(key ^ GROW), propose) {
+                if band.try_dart(p.x + dx, p.z + dz, rng::mix64(key ^ purpose::GROW), propose) {
                     placed = true;
                     break;
                 }
@@ -252,12 +250,12 @@ fn sample_band<T>(
                 continue;
             }
             seeded = (0..SCAN_DARTS).any(|k| {
-                let key = rng::hash3(seed ^ SCAN, c as u64, k);
+                let key = rng::hash3(seed ^ purpose::SCAN, c as u64, k);
                 let (x, z) = (
                     sx + rng::unit(key) * cell,
                     sz + rng::unit(rng::mix64(key)) * cell,
                 );
-                x < x1 && z < z1 && band.try_dart(x, z, rng::mix64(key ^ SCAN), propose)
+                x < x1 && z < z1 && band.try_dart(x, z, rng::mix64(key ^ purpose::SCAN), propose)
             });
         }
         if !seeded {

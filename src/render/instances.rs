@@ -126,12 +126,7 @@ impl Instances {
     /// Calls `f(i, local ray, t_max)` for every instance whose world box `ray` meets before
     /// `t_max`, in no particular order. `f` returns `Some(t)` to shorten the ray to `t` (a hit
     /// nearer than any so far; `Some(0.0)` ends the traversal), `None` to go on.
-    pub fn visit(
-        &self,
-        ray: &Ray,
-        t_max: f32,
-        mut f: impl FnMut(u32, &Ray, f32) -> Option<f32>,
-    ) {
+    pub fn visit(&self, ray: &Ray, t_max: f32, mut f: impl FnMut(u32, &Ray, f32) -> Option<f32>) {
         self.bvh.traverse(ray, 0.0, t_max, |i, t_max| {
             f(i, &self.get(i).local_ray(ray), t_max)
         });

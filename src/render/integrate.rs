@@ -32,7 +32,7 @@ use glam::Vec3;
 use super::instances::{Instance, Intervals};
 use super::scene::Scene;
 use crate::geom::Ray;
-use crate::rng;
+use crate::rng::{self, purpose};
 
 /// How finely and how far rays are followed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -288,7 +288,13 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     SURFACES.with_borrow_mut(|s| s.clear());
     while let Some(start) = walk.advance(t, t_max) {
         t = start;
-        let (end, ts) = segment_end(&walk, t, t_max, march.step, rng::hash3(key, segment, 0x72));
+        let (end, ts) = segment_end(
+            &walk,
+            t,
+            t_max,
+            march.step,
+            rng::hash3(key, segment, purpose::SEGMENT_JITTER),
+        );
         segment += 1;
         out.samples += 1;
         // Everything the instances containing the sample say, sigma-weighted.
@@ -338,9 +344,17 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         let lit = roulette(
             share,
             march,
-            rng::hash3(key, segment, 0x7272),
+            rng::hash3(key, segment, purpose::SEGMENT_ROULETTE),
             &mut out.shadow_rays,
-            || sun_light(scene, p, t * spread, rng::hash3(key, segment, 0x6c), march),
+            || {
+                sun_light(
+                    scene,
+                    p,
+                    t * spread,
+                    rng::hash3(key, segment, purpose::SEGMENT_LIGHT),
+                    march,
+                )
+            },
         );
         let source = shade(scene, albedo, normal, lit, -dir);
         out.rgb += source * share;
@@ -385,14 +399,14 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
                 roulette(
                     transmittance,
                     march,
-                    rng::hash3(key, 0x67, 0x7272),
+                    rng::hash3(key, purpose::GROUND, purpose::SEGMENT_ROULETTE),
                     &mut out.shadow_rays,
                     || {
                         sun_light(
                             scene,
                             lift,
                             hit.t * spread,
-                            rng::hash3(key, 0x67, 0x72),
+                            rng::hash3(key, purpose::GROUND, purpose::SEGMENT_JITTER),
                             march,
                         )
                     },

@@ -10,16 +10,13 @@
 
 use glam::Vec3;
 
-use super::integrate::{Radiance, shade, shade_ground, sun_radiance};
 use super::instances::Instance;
+use super::integrate::{Radiance, shade, shade_ground, sun_radiance};
 use super::scene::Scene;
 use crate::geom::{Ray, TriangleBvh, TriangleHit};
 use crate::import::Mesh;
 use crate::mesh_tracer::covers;
 use crate::rng;
-
-/// Key of the random stream that drops foliage triangles for a partial leaf fraction.
-const LEAF_STREAM: u64 = 0x6c65_6166;
 
 /// A tree model ready for tracing, in its model space (that of the texel baked from it).
 pub struct TreeMesh {
@@ -60,7 +57,11 @@ fn present(scene: &Scene, i: u32, tree: &TreeMesh, t: u32, w: [f32; 3], key: u64
     if tree.foliage[t as usize] {
         let fraction = scene.looks[scene.instances.get(i).look as usize].foliage;
         if fraction < 1.0
-            && rng::unit(rng::hash3(u64::from(i), u64::from(t), LEAF_STREAM)) >= f64::from(fraction)
+            && rng::unit(rng::hash3(
+                u64::from(i),
+                u64::from(t),
+                rng::purpose::MESH_LEAF,
+            )) >= f64::from(fraction)
         {
             return false;
         }
@@ -122,7 +123,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
         distance: f32::INFINITY,
         ..Radiance::default()
     };
-    let shadow_key = rng::mix64(key ^ 0x73);
+    let shadow_key = rng::mix64(key ^ rng::purpose::MESH_SHADOW);
     let (normal, albedo, t, species) = if let Some(h) = nearest_tree(scene, &ray, t_max, key) {
         let inst = scene.instances.get(h.instance);
         let tree = tree_of(scene, inst);

@@ -126,7 +126,11 @@ fn pixel(
     strata: u32,
     spread: f32,
 ) -> Pixel {
-    let pixel_key = rng::hash3(settings.seed, ((y as u64) << 32) | x as u64, 0x0070_6978);
+    let pixel_key = rng::hash3(
+        settings.seed,
+        ((y as u64) << 32) | x as u64,
+        rng::purpose::PIXEL,
+    );
     let (mut rgba, mut first, mut z) = ([0.0f32; 4], None, f32::INFINITY);
     let (mut samples, mut shadow_rays) = (0u64, 0u64);
     for s in 0..settings.spp {
@@ -135,7 +139,7 @@ fn pixel(
         let px = x as f64 + (sx + rng::unit(key)) / strata as f64;
         let py = y as f64 + (sy + rng::unit(rng::mix64(key))) / strata as f64;
         let dir = camera.direction(px, py);
-        let ray_key = rng::mix64(key ^ 0x5a);
+        let ray_key = rng::mix64(key ^ rng::purpose::RAY);
         let r = match settings.method {
             Method::Texel => integrate::radiance(scene, dir, spread, ray_key, &settings.march),
             Method::Mesh => mesh::radiance(scene, dir, ray_key),
