@@ -33,8 +33,11 @@ pub mod purpose {
     pub const SEGMENT_JITTER: u64 = 0x72;
     pub const SEGMENT_ROULETTE: u64 = 0x7272;
     pub const SEGMENT_LIGHT: u64 = 0x6c;
-    /// The terrain hit's shadow ray: `hash3(ray key, GROUND, ..)` with the segment purposes.
-    pub const GROUND: u64 = 0x67;
+    /// The terrain hit's shadow ray: `hash3(ray key, 0, ..)` with these, which no segment
+    /// purpose equals (a segment index in the middle slot once made the ground's stream that
+    /// of segment 103).
+    pub const GROUND_ROULETTE: u64 = 0x6772_6f75;
+    pub const GROUND_LIGHT: u64 = 0x6772_6c69;
     /// The mesh method: a ray's shadow stream (XOR-ed into its key), which leaves a tree keeps
     /// at a partial leaf fraction, and alpha-blended triangles.
     pub const MESH_SHADOW: u64 = 0x73;
@@ -141,5 +144,25 @@ mod tests {
             .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
+    }
+}
+
+#[cfg(test)]
+mod purposes {
+    use super::purpose::*;
+
+    /// The ray-level purposes share a ray key: none may equal another.
+    #[test]
+    fn ray_purposes_are_distinct() {
+        let all = [
+            SEGMENT_JITTER,
+            SEGMENT_ROULETTE,
+            SEGMENT_LIGHT,
+            GROUND_ROULETTE,
+            GROUND_LIGHT,
+        ];
+        for (i, a) in all.iter().enumerate() {
+            assert!(!all[i + 1..].contains(a), "{a:#x} twice");
+        }
     }
 }

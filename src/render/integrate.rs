@@ -399,14 +399,14 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
                 roulette(
                     transmittance,
                     march,
-                    rng::hash3(key, purpose::GROUND, purpose::SEGMENT_ROULETTE),
+                    rng::hash3(key, 0, purpose::GROUND_ROULETTE),
                     &mut out.shadow_rays,
                     || {
                         sun_light(
                             scene,
                             lift,
                             hit.t * spread,
-                            rng::hash3(key, purpose::GROUND, purpose::SEGMENT_JITTER),
+                            rng::hash3(key, 0, purpose::GROUND_LIGHT),
                             march,
                         )
                     },
