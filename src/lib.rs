@@ -10,6 +10,7 @@
 pub mod bake;
 pub mod color;
 pub mod compare;
+#[cfg(feature = "dev-tools")]
 pub mod corpus;
 pub mod formats;
 pub mod geom;
@@ -21,8 +22,10 @@ pub mod limits;
 pub mod mesh_tracer;
 pub mod output;
 pub mod place;
+#[cfg(feature = "dev-tools")]
 pub mod plot;
 pub mod png;
+#[cfg(feature = "dev-tools")]
 pub mod procedural;
 pub mod provenance;
 pub mod render;

@@ -258,6 +258,7 @@ fn payload(forest: &Forest) -> Vec<u8> {
 
 /// A file the writer would refuse: `forest`'s header and payload with `edit` applied, put in a
 /// container without any check. For the corpus of invalid files readers are tested against.
+#[cfg(feature = "dev-tools")]
 pub(crate) fn forge(forest: &Forest, edit: impl FnOnce(&mut Header, &mut Vec<u8>)) -> Vec<u8> {
     let mut header = Header {
         info: forest.info.clone(),

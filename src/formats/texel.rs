@@ -276,6 +276,7 @@ fn assemble(parts: &Parts) -> Result<Vec<u8>, ContainerError> {
 
 /// A file the writer would refuse: `texel`'s parts with `edit` applied, put in a container
 /// without any check. For the corpus of invalid files readers are tested against.
+#[cfg(feature = "dev-tools")]
 pub(crate) fn forge(texel: &Texel, edit: impl FnOnce(&mut Parts)) -> Vec<u8> {
     let mut p = parts(texel);
     edit(&mut p);
