@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3};
 
-use super::mesh::TreeMesh;
+use super::scene::TreeMesh;
 use super::{Look, Placed};
 use crate::bake;
 use crate::formats::{container, instances, texel};

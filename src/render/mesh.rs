@@ -11,38 +11,11 @@
 use glam::Vec3;
 
 use super::instances::Instance;
-use super::integrate::{Radiance, shade, shade_ground, sun_radiance};
-use super::scene::Scene;
-use crate::geom::{Ray, TriangleBvh, TriangleHit};
-use crate::import::Mesh;
+use super::scene::{Scene, TreeMesh};
+use super::shading::{Radiance, shade, shade_ground, sun_radiance};
+use crate::geom::{Ray, TriangleHit};
 use crate::mesh_tracer::covers;
 use crate::rng;
-
-/// A tree model ready for tracing, in its model space (that of the texel baked from it).
-pub struct TreeMesh {
-    pub mesh: Mesh,
-    triangles: TriangleBvh,
-    /// Per triangle: part of the foliage (recoloured by season, thinned by leaf fraction).
-    foliage: Vec<bool>,
-}
-
-impl TreeMesh {
-    pub fn new(mesh: Mesh, foliage: Vec<bool>) -> TreeMesh {
-        let corners = mesh.corners();
-        TreeMesh {
-            triangles: TriangleBvh::new(corners),
-            mesh,
-            foliage,
-        }
-    }
-
-    fn normal(&self, t: u32) -> Vec3 {
-        let [a, b, c] = self.mesh.triangles[t as usize]
-            .vertices
-            .map(|v| self.mesh.positions[v as usize]);
-        (b - a).cross(c - a).normalize_or(Vec3::Y)
-    }
-}
 
 /// A hit on a tree: which instance, which triangle of its model, and where.
 struct TreeHit {

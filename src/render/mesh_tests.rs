@@ -3,7 +3,8 @@
 
 use glam::{DVec3, Vec3, Vec4};
 
-use super::mesh::{self, TreeMesh};
+use super::mesh;
+use super::scene::TreeMesh;
 use super::scene::{Lighting, Look, Scene, Sun};
 use super::tests::{HEAD_ON, PLAIN, ground, look, placed, uniform_texel};
 use super::{Camera, Method, RenderSettings, render};

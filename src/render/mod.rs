@@ -13,13 +13,15 @@ pub mod integrate;
 pub mod load;
 pub mod mesh;
 pub mod scene;
+pub mod shading;
 
 use rayon::prelude::*;
 
 pub use camera::Camera;
 pub use film::{Aovs, Film};
-pub use integrate::{March, Radiance};
+pub use integrate::March;
 pub use scene::{Ground, Lighting, Look, Placed, Scene, Shading, Sun};
+pub use shading::Radiance;
 
 #[cfg(test)]
 mod mesh_tests;

@@ -8,7 +8,6 @@ use crate::import::Mesh;
 use crate::volume::Texel;
 
 use super::instances::{Instance, Instances};
-use super::mesh::TreeMesh;
 
 /// How a species looks on the rendered day.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -204,5 +203,31 @@ impl Scene {
     pub fn with_meshes(self, meshes: Vec<TreeMesh>) -> Scene {
         assert_eq!(meshes.len(), self.texels.len(), "one mesh per texel");
         Scene { meshes, ..self }
+    }
+}
+
+/// A tree model ready for tracing, in its model space (that of the texel baked from it).
+pub struct TreeMesh {
+    pub mesh: Mesh,
+    pub(super) triangles: TriangleBvh,
+    /// Per triangle: part of the foliage (recoloured by season, thinned by leaf fraction).
+    pub(super) foliage: Vec<bool>,
+}
+
+impl TreeMesh {
+    pub fn new(mesh: Mesh, foliage: Vec<bool>) -> TreeMesh {
+        let corners = mesh.corners();
+        TreeMesh {
+            triangles: TriangleBvh::new(corners),
+            mesh,
+            foliage,
+        }
+    }
+
+    pub(super) fn normal(&self, t: u32) -> Vec3 {
+        let [a, b, c] = self.mesh.triangles[t as usize]
+            .vertices
+            .map(|v| self.mesh.positions[v as usize]);
+        (b - a).cross(c - a).normalize_or(Vec3::Y)
     }
 }
