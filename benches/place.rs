@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use texel_forest::formats::instances::{self, ForestInfo, SpeciesRecord};
+use texel_forest::formats::instances::{self, SpeciesRecord};
 use texel_forest::place::{self, PlaceSettings};
 use texel_forest::procedural::{builder, terrain};
 use texel_forest::provenance::SourceFile;
@@ -38,11 +38,8 @@ fn main() {
     let forest = place::place(&terrain, &species, &heights, &settings).expect("place");
     let placing = start.elapsed().as_secs_f64();
 
-    let source = |p: &str| SourceFile {
-        path: p.into(),
-        sha256: [0; 32],
-        bytes: 0,
-    };
+    // The forest file as `texel place` makes it (texture hashes left at zero: the bench reads
+    // no textures).
     let records = species
         .species
         .iter()
@@ -62,23 +59,20 @@ fn main() {
         })
         .collect();
     let n = forest.instances.len();
-    let file = instances::Forest {
-        info: ForestInfo {
-            generator: "bench".into(),
-            terrain: vec![source("mountain.glb")],
-            species_file: source("forest.json"),
-            seed: 1,
-            region: forest.region,
-            raster_cell: forest.raster.cell,
-            max_count: 1_000_000,
-            truncated: forest.truncated,
-            terrain_min: terrain.lo.to_array(),
-            terrain_max: terrain.hi.to_array(),
-            origin: texel_forest::place::quantisation_origin(&forest.instances),
-            species: records,
+    let inputs = place::inputs::PlaceInputs {
+        terrain,
+        species,
+        species_source: SourceFile {
+            path: "forest.json".into(),
+            sha256: [0; 32],
+            bytes: 0,
         },
-        instances: forest.instances,
+        records,
+        model_heights: heights,
+        dependencies: vec![],
     };
+    let file = place::inputs::forest_file(&inputs, forest, 1, Some(1_000_000), &dir);
+    let terrain = &inputs.terrain;
     let start = Instant::now();
     let bytes = instances::encode(&file).expect("encodes");
     let encoding = start.elapsed().as_secs_f64();

@@ -11,17 +11,11 @@ use texel_forest::limits::Limits;
 use texel_forest::output::{Outputs, depfile};
 use texel_forest::render::load::{self, LoadedScene, SceneRequest};
 use texel_forest::render::{
-    self, Aovs, Camera, Lighting, March, Method, RenderSettings, Scene, Shading, Sun,
+    self, Aovs, Lighting, March, Method, RenderSettings, Scene, Shading,
+    view::{self, CameraChoice},
 };
-use texel_forest::terrain::Terrain;
 
 use crate::cli::{AovArg, MethodArg, RenderArgs};
-
-/// Afternoon light from the south-west when nothing says otherwise.
-const DEFAULT_SUN: (f64, f64) = (225.0, 35.0);
-const DEFAULT_FOV: f64 = 35.0;
-/// The default view: from the south-south-west, 25 degrees up.
-const DEFAULT_VIEW: (f64, f64) = (200.0, 25.0);
 
 pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> {
     let start = Instant::now();
@@ -71,16 +65,29 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         }
         None => scene.terrain.clone(),
     };
-    let camera = camera(args, &scene, &views)?;
-    warn_if_under_ground(&scene, &camera);
-    let sun = match (args.sun, views.suns.first()) {
-        (Some([az, el]), _) => Sun::from_angles(az, el, std::f32::consts::PI),
-        (None, Some(light)) => Sun {
-            direction: light.towards.as_vec3(),
-            irradiance: std::f32::consts::PI,
-        },
-        (None, None) => Sun::from_angles(DEFAULT_SUN.0, DEFAULT_SUN.1, std::f32::consts::PI),
+    let choice = match (args.eye, args.target, &args.camera) {
+        (Some(eye), Some(target), _) => CameraChoice::LookAt { eye, target },
+        (_, _, Some(name)) => CameraChoice::Named(name),
+        _ => {
+            let (lo, hi) = scene.forest_bounds();
+            CameraChoice::Frame { lo, hi }
+        }
     };
+    let camera = view::camera(choice, args.fov, (args.width, args.height), &views.cameras)
+        .map_err(|e| anyhow::anyhow!(e))?;
+    if let Some(ground) = scene.ground_height(camera.eye.x, camera.eye.z)
+        && camera.eye.y < ground
+    {
+        let e = camera.eye;
+        super::warn(&format!(
+            "the eye ({:.1}, {:.1}, {:.1}) is {:.1} m below the terrain, whose surface is at {ground:.1} m there: the render shows the terrain's underside",
+            e.x,
+            e.y,
+            e.z,
+            ground - e.y
+        ));
+    }
+    let sun = view::sun(args.sun, &views.suns);
 
     let LoadedScene {
         forest,
@@ -201,49 +208,4 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         );
     }
     Ok(())
-}
-
-/// The camera: `--eye`/`--target`, a named glTF camera, or a view of the forest's region.
-fn camera(args: &RenderArgs, scene: &LoadedScene, views: &import::Model) -> anyhow::Result<Camera> {
-    let fov = args.fov.unwrap_or(DEFAULT_FOV);
-    let (w, h) = (args.width, args.height);
-    if let (Some(eye), Some(target)) = (args.eye, args.target) {
-        return Camera::look_at(DVec3::from(eye), DVec3::from(target), fov, w, h)
-            .map_err(|e| anyhow::anyhow!("--eye/--target: {e}"));
-    }
-    if let Some(name) = &args.camera {
-        let Some(c) = views.cameras.iter().find(|c| &c.name == name) else {
-            let names: Vec<&str> = views.cameras.iter().map(|c| c.name.as_str()).collect();
-            bail!(
-                "--camera {name:?}: no such camera (the glTF has: {})",
-                if names.is_empty() {
-                    "none".to_string()
-                } else {
-                    names.join(", ")
-                }
-            );
-        };
-        let vfov = args.fov.map_or(c.yfov, f64::to_radians);
-        return Camera::from_frame(c.eye, c.forward, c.up, vfov, w, h)
-            .map_err(|e| anyhow::anyhow!("--camera {name:?}: {e}"));
-    }
-    let (lo, hi) = scene.forest_bounds();
-    Camera::framing(lo, hi, DEFAULT_VIEW, fov, w, h)
-        .map_err(|e| anyhow::anyhow!("framing the forest: {e}"))
-}
-
-/// An eye below the terrain sees its underside: an upside-down landscape. Worth a warning.
-fn warn_if_under_ground(scene: &LoadedScene, camera: &Camera) {
-    let terrain = Terrain::from_model(scene.terrain.clone());
-    if let Some(ground) = terrain.height_at(camera.eye.x, camera.eye.z)
-        && camera.eye.y < ground
-    {
-        super::warn(&format!(
-            "the eye ({:.1}, {:.1}, {:.1}) is {:.1} m below the terrain, whose surface is at {ground:.1} m there: the render shows the terrain's underside",
-            camera.eye.x,
-            camera.eye.y,
-            camera.eye.z,
-            ground - camera.eye.y
-        ));
-    }
 }

@@ -6,6 +6,8 @@
 //! its exact ground height, a rotation, a scale and a variation seed, and order the trees along
 //! a Z-order curve so neighbours in the file are neighbours on the ground.
 
+pub mod diagnosis;
+pub mod inputs;
 pub mod poisson;
 
 use rayon::prelude::*;

@@ -222,6 +222,11 @@ fn tree_meshes(
 }
 
 impl LoadedScene {
+    /// Height of the terrain's surface above (x, z), if any.
+    pub fn ground_height(&self, x: f64, z: f64) -> Option<f64> {
+        crate::terrain::Terrain::from_model(self.terrain.clone()).height_at(x, z)
+    }
+
     /// The box to frame by default: the forest's region, from the lowest tree base (or the
     /// terrain) to the highest crown; the whole terrain when the forest is empty.
     pub fn forest_bounds(&self) -> (DVec3, DVec3) {

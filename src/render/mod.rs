@@ -14,6 +14,7 @@ pub mod load;
 pub mod mesh;
 pub mod scene;
 pub mod shading;
+pub mod view;
 
 use rayon::prelude::*;
 

@@ -1,0 +1,152 @@
+//! What placement reads and what it writes: the species file and every texture it names (a
+//! texture's model height turns tree heights into scales), the terrain, and the `.instances`
+//! file a placement becomes, with every input recorded by path and hash.
+
+use std::path::{Path, PathBuf};
+
+use super::{Placement, quantisation_origin};
+use crate::formats::instances::{self, ForestInfo, SpeciesRecord};
+use crate::formats::{container, texel};
+use crate::input::{self, MAX_SPECIES};
+use crate::limits::Limits;
+use crate::provenance::{self, SourceFile};
+use crate::species::SpeciesFile;
+use crate::terrain::{Terrain, TerrainError};
+
+/// Everything placement needs, read and checked.
+pub struct PlaceInputs {
+    pub terrain: Terrain,
+    pub species: SpeciesFile,
+    /// The species file as the forest records it.
+    pub species_source: SourceFile,
+    /// Per species, its record for the forest file (textures relative to the output).
+    pub records: Vec<SpeciesRecord>,
+    /// Per species, the height of its texture's model in model units.
+    pub model_heights: Vec<f64>,
+    /// Every file read: the terrain's, the species file, the textures.
+    pub dependencies: Vec<PathBuf>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum InputsError {
+    /// A file could not be read or decoded; `what` says where it was named.
+    #[error("{what}")]
+    File {
+        what: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    #[error(transparent)]
+    Terrain(#[from] TerrainError),
+}
+
+fn file_error(what: String, e: impl std::error::Error + Send + Sync + 'static) -> InputsError {
+    InputsError::File {
+        what,
+        source: Box::new(e),
+    }
+}
+
+/// A species file's problem, as its parser names it.
+#[derive(Debug, thiserror::Error)]
+#[error("{}{message}", if field.is_empty() { String::new() } else { format!("{field}: ") })]
+struct SpeciesProblem {
+    field: String,
+    message: String,
+}
+
+/// Reads the species file at `species`, every texture it names and the terrain at `terrain`;
+/// paths are recorded relative to `out_dir`, where the forest file will be.
+pub fn load(
+    terrain: &Path,
+    species: &Path,
+    out_dir: &Path,
+    limits: &Limits,
+) -> Result<PlaceInputs, InputsError> {
+    let name = species.display().to_string();
+    let species_bytes = input::read_bounded(species, MAX_SPECIES, "species file")
+        .map_err(|e| file_error(name.clone(), e))?;
+    let file = SpeciesFile::parse(&species_bytes)
+        .map_err(|(field, message)| file_error(name.clone(), SpeciesProblem { field, message }))?;
+    let species_dir = species.parent().unwrap_or(Path::new(""));
+
+    let mut dependencies: Vec<PathBuf> = Vec::new();
+    let mut records = Vec::new();
+    let mut model_heights = Vec::new();
+    for (i, s) in file.species.iter().enumerate() {
+        let mut read = |field: &str, rel: &Path| {
+            let path = species_dir.join(rel);
+            let what = format!("{name}: species[{i}].{field}: {}", path.display());
+            let bytes = container::read_file(&path).map_err(|e| file_error(what.clone(), e))?;
+            let info = texel::read_info(&bytes).map_err(|e| file_error(what, e))?;
+            let source = provenance::source(&path, &bytes, out_dir);
+            dependencies.push(path);
+            Ok::<_, InputsError>((source, info))
+        };
+        let (texel_source, info) = read("texel", &s.texel)?;
+        let leafless = match &s.leafless_texel {
+            Some(rel) => Some(read("leafless_texel", rel)?.0),
+            None => None,
+        };
+        let height = info.model_max[1] - info.model_min[1];
+        model_heights.push(height);
+        records.push(SpeciesRecord {
+            name: s.name.clone(),
+            texel: texel_source.path,
+            texel_sha256: texel_source.sha256,
+            leafless_texel: leafless.as_ref().map(|l| l.path.clone()),
+            leafless_sha256: leafless.map(|l| l.sha256),
+            model_height: height,
+            spacing: s.spacing,
+            height_min: s.height.min,
+            height_max: s.height.max,
+            traits: s.traits,
+            seasons: s.seasons.clone(),
+        });
+    }
+    let terrain = Terrain::load(terrain, limits)?;
+    let mut all: Vec<PathBuf> = terrain.model.sources.iter().map(|s| s.path.clone()).collect();
+    all.push(species.to_path_buf());
+    for d in dependencies {
+        if !all.contains(&d) {
+            all.push(d);
+        }
+    }
+    Ok(PlaceInputs {
+        terrain,
+        species_source: provenance::source(species, &species_bytes, out_dir),
+        species: file,
+        records,
+        model_heights,
+        dependencies: all,
+    })
+}
+
+/// The forest file of `placement`, made from `inputs` with `seed` (and `max_count`, where one
+/// was asked for); the terrain's files are recorded relative to `out_dir`.
+pub fn forest_file(
+    inputs: &PlaceInputs,
+    placement: Placement,
+    seed: u64,
+    max_count: Option<u64>,
+    out_dir: &Path,
+) -> instances::Forest {
+    let (terrain_records, _) = provenance::record(&inputs.terrain.model.sources, out_dir);
+    instances::Forest {
+        info: ForestInfo {
+            generator: concat!("texel-forest ", env!("CARGO_PKG_VERSION")).to_string(),
+            terrain: terrain_records,
+            species_file: inputs.species_source.clone(),
+            seed,
+            region: placement.region,
+            raster_cell: placement.raster.cell,
+            max_count: max_count.unwrap_or(u64::MAX),
+            truncated: placement.truncated,
+            terrain_min: inputs.terrain.lo.to_array(),
+            terrain_max: inputs.terrain.hi.to_array(),
+            origin: quantisation_origin(&placement.instances),
+            species: inputs.records.clone(),
+        },
+        instances: placement.instances,
+    }
+}
