@@ -8,18 +8,87 @@ use glam::{DVec3, Vec3};
 
 use texel_forest::import;
 use texel_forest::limits::Limits;
-use texel_forest::output::{Outputs, depfile};
+use texel_forest::output::{OutputId, Outputs, depfile};
 use texel_forest::render::load::{self, LoadedScene, SceneRequest};
 use texel_forest::render::{
-    self, Aovs, Lighting, March, Method, RenderSettings, Scene, Shading,
+    self, Aovs, Camera, Film, Lighting, March, Method, RenderSettings, Shading,
     view::{self, CameraChoice},
 };
 
 use crate::cli::{AovArg, MethodArg, RenderArgs};
 
+/// The outputs a render writes, planned before anything is read.
+struct Planned {
+    outputs: Outputs,
+    exr: OutputId,
+    preview: Option<OutputId>,
+    depfile: Option<OutputId>,
+}
+
 pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> {
     let start = Instant::now();
-    // The frame's size and every output are checked before anything is read.
+    let mut planned = plan(args, limits)?;
+    let scene = load::load(&SceneRequest {
+        forest: &args.instances,
+        terrain: args.terrain.as_deref(),
+        day: args.day,
+        meshes: args.method == MethodArg::Mesh,
+        limits: *limits,
+    })?;
+    let mut dependencies = scene.dependencies.clone();
+    planned.outputs.add_inputs(&dependencies)?;
+    let views = match &args.camera_file {
+        Some(p) => {
+            dependencies.push(p.clone());
+            import::load_with(p, limits)?
+        }
+        None => scene.terrain.clone(),
+    };
+    let camera = camera(args, &scene, &views)?;
+    let trees = scene.forest.instances.len();
+    let lighting = Lighting {
+        sun: view::sun(args.sun, &views.suns),
+        shading: Shading::default(),
+        sky: args.sky.map(|s| DVec3::from(s).as_vec3()),
+    };
+    let scene = scene.into_scene(camera.eye, lighting);
+
+    let pixels = args.crop.map_or(
+        u64::from(args.width) * u64::from(args.height),
+        |[x0, y0, x1, y1]| u64::from(x1 - x0) * u64::from(y1 - y0),
+    );
+    let bar = progress_bar(pixels, quiet);
+    let render_start = Instant::now();
+    let film = render::render(&scene, &camera, &settings(args), &|n| bar.inc(n));
+    bar.finish_and_clear();
+    let seconds = render_start.elapsed().as_secs_f64();
+
+    write(args, planned, &film, &camera, &dependencies)?;
+    if !quiet {
+        let rays = pixels * u64::from(args.spp);
+        let (samples, shadow_rays) = film.work();
+        let (drawn_from, work) = match args.method {
+            MethodArg::Texel => (
+                "textures",
+                format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
+            ),
+            MethodArg::Mesh => ("meshes", format!("{shadow_rays:.1} shadow rays per pixel")),
+        };
+        eprintln!(
+            "texel: rendered {trees} trees from their {drawn_from}, {}x{} ({pixels} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} ({:.2} s in all)",
+            args.width,
+            args.height,
+            args.spp,
+            rays as f64 / seconds,
+            args.output.display(),
+            start.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+/// Checks the frame's size and plans every output, before anything is read.
+fn plan(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Planned> {
     limits.check_pixels(
         u64::from(args.width) * u64::from(args.height),
         "--width x --height",
@@ -37,34 +106,32 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     inputs.extend(args.terrain.as_deref());
     inputs.extend(args.camera_file.as_deref());
     let mut outputs = Outputs::new(&inputs);
-    let exr_out = outputs.add("-o", &args.output)?;
-    let preview_out = args
+    let exr = outputs.add("-o", &args.output)?;
+    let preview = args
         .preview
         .as_ref()
         .map(|p| outputs.add("--preview", p))
         .transpose()?;
-    let dep_out = args
+    let depfile = args
         .depfile
         .as_ref()
         .map(|d| outputs.add("--depfile", d))
         .transpose()?;
+    Ok(Planned {
+        outputs,
+        exr,
+        preview,
+        depfile,
+    })
+}
 
-    let scene = load::load(&SceneRequest {
-        forest: &args.instances,
-        terrain: args.terrain.as_deref(),
-        day: args.day,
-        meshes: args.method == MethodArg::Mesh,
-        limits: *limits,
-    })?;
-    let mut dependencies = scene.dependencies.clone();
-    outputs.add_inputs(&dependencies)?;
-    let views = match &args.camera_file {
-        Some(p) => {
-            dependencies.push(p.clone());
-            import::load_with(p, limits)?
-        }
-        None => scene.terrain.clone(),
-    };
+/// The camera the flags ask for (the forest framed by default), with a warning when the eye
+/// is under the terrain.
+fn camera(
+    args: &RenderArgs,
+    scene: &LoadedScene,
+    views: &import::Model,
+) -> anyhow::Result<Camera> {
     let choice = match (args.eye, args.target, &args.camera) {
         (Some(eye), Some(target), _) => CameraChoice::LookAt { eye, target },
         (_, _, Some(name)) => CameraChoice::Named(name),
@@ -75,10 +142,10 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     };
     let camera = view::camera(choice, args.fov, (args.width, args.height), &views.cameras)
         .map_err(|e| anyhow::anyhow!(e))?;
-    if let Some(ground) = scene.ground_height(camera.eye.x, camera.eye.z)
-        && camera.eye.y < ground
+    let e = camera.eye;
+    if let Some(ground) = scene.ground_height(e.x, e.z)
+        && e.y < ground
     {
-        let e = camera.eye;
         super::warn(&format!(
             "the eye ({:.1}, {:.1}, {:.1}) is {:.1} m below the terrain, whose surface is at {ground:.1} m there: the render shows the terrain's underside",
             e.x,
@@ -87,35 +154,11 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
             ground - e.y
         ));
     }
-    let sun = view::sun(args.sun, &views.suns);
+    Ok(camera)
+}
 
-    let LoadedScene {
-        forest,
-        texels,
-        looks,
-        placed,
-        terrain,
-        meshes,
-        ..
-    } = scene;
-    let lighting = Lighting {
-        sun,
-        shading: Shading::default(),
-        sky: args.sky.map(|s| DVec3::from(s).as_vec3()),
-    };
-    let scene = Scene::new(
-        camera.eye,
-        texels,
-        looks,
-        &placed,
-        Some(terrain.mesh),
-        lighting,
-    );
-    let scene = match meshes {
-        Some(m) => scene.with_meshes(m),
-        None => scene,
-    };
-    let settings = RenderSettings {
+fn settings(args: &RenderArgs) -> RenderSettings {
+    RenderSettings {
         method: match args.method {
             MethodArg::Texel => Method::Texel,
             MethodArg::Mesh => Method::Mesh,
@@ -130,27 +173,27 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         },
         crop: args.crop,
         seed: args.seed,
-    };
+    }
+}
 
-    let pixels = args.crop.map_or(
-        u64::from(args.width) * u64::from(args.height),
-        |[x0, y0, x1, y1]| u64::from(x1 - x0) * u64::from(y1 - y0),
-    );
-    let bar = if quiet || !std::io::stderr().is_terminal() {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new(pixels).with_style(
-            indicatif::ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {percent}% {msg}",
-            )
+fn progress_bar(pixels: u64, quiet: bool) -> indicatif::ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    indicatif::ProgressBar::new(pixels).with_style(
+        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        )
-    };
-    let render_start = Instant::now();
-    let film = render::render(&scene, &camera, &settings, &|n| bar.inc(n));
-    bar.finish_and_clear();
-    let seconds = render_start.elapsed().as_secs_f64();
+    )
+}
 
+/// Encodes the EXR, the preview and the depfile, and commits them together.
+fn write(
+    args: &RenderArgs,
+    mut planned: Planned,
+    film: &Film,
+    camera: &Camera,
+    dependencies: &[std::path::PathBuf],
+) -> anyhow::Result<()> {
     let aovs = Aovs {
         normal: args.aov.contains(&AovArg::Normal),
         albedo: args.aov.contains(&AovArg::Albedo),
@@ -173,39 +216,15 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
             exr.clamped
         ));
     }
-    outputs.set(exr_out, exr.bytes);
-    if let Some(p) = preview_out {
+    planned.outputs.set(planned.exr, exr.bytes);
+    if let Some(p) = planned.preview {
         let png = texel_forest::png::encode(&film.preview(Vec3::new(0.55, 0.68, 0.85)));
-        outputs.set(p, png);
+        planned.outputs.set(p, png);
     }
-    if let Some(d) = dep_out {
-        outputs.set(d, depfile(&args.output, &dependencies).into_bytes());
+    if let Some(d) = planned.depfile {
+        planned
+            .outputs
+            .set(d, depfile(&args.output, dependencies).into_bytes());
     }
-    outputs.commit()?;
-    if !quiet {
-        let rays = pixels * u64::from(args.spp);
-        let (samples, shadow_rays) = film.work();
-        let work = match args.method {
-            MethodArg::Texel => {
-                format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel")
-            }
-            MethodArg::Mesh => format!("{shadow_rays:.1} shadow rays per pixel"),
-        };
-        eprintln!(
-            "texel: rendered {} trees from their {}, {}x{} ({} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} ({:.2} s in all)",
-            forest.instances.len(),
-            match args.method {
-                MethodArg::Texel => "textures",
-                MethodArg::Mesh => "meshes",
-            },
-            args.width,
-            args.height,
-            pixels,
-            args.spp,
-            rays as f64 / seconds,
-            args.output.display(),
-            start.elapsed().as_secs_f64()
-        );
-    }
-    Ok(())
+    Ok(planned.outputs.commit()?)
 }

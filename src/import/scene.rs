@@ -252,13 +252,7 @@ fn add_primitive(
         ));
         return Ok(());
     }
-    let attribute = |s: Semantic| {
-        primitive
-            .attributes
-            .get(&Checked::Valid(s))
-            .map(|a| a.value())
-    };
-    let Some(position_accessor) = attribute(Semantic::Positions) else {
+    let Some(position_accessor) = attribute(&primitive, Semantic::Positions) else {
         doc.warn(format!(
             "{}: {field} skipped: it has no POSITION",
             path.display()
@@ -285,7 +279,47 @@ fn add_primitive(
 
     let material = material_index(doc, b, primitive.material.map(|m| m.value()), &field)?;
     let tex_coord = texture_coordinate_set(doc, primitive.material.map(|m| m.value()));
-    let uvs = match tex_coord.and_then(|set| attribute(Semantic::TexCoords(set)).map(|a| (set, a)))
+    let uvs = texture_coordinates(doc, &primitive, tex_coord, n, &field)?;
+    let colors = vertex_colors(doc, &primitive, n, &field)?;
+
+    let indices = vertex_indices(doc, &primitive, n, &field)?;
+    let corners = triangulate(mode, &indices);
+    // Instancing multiplies what a small file holds: check the scene's size before growing it.
+    let limits = doc.limits;
+    let what = "the triangles of the scene with every node instanced";
+    limits
+        .check_triangles((b.mesh.triangles.len() + corners.len()) as u64, what)
+        .and_then(|_| {
+            limits.check_triangles(
+                ((b.mesh.positions.len() + n) / 3) as u64,
+                "a third of the scene's vertices with every node instanced",
+            )
+        })
+        .map_err(|e| ImportError::invalid(&path, &field, e))?;
+
+    append(b, world, &positions.data, uvs, colors, &corners, material)
+        .map_err(|message| ImportError::invalid(&path, &pfield, message))
+}
+
+/// The accessor of `primitive`'s attribute `semantic`, if it has one.
+fn attribute(primitive: &json::mesh::Primitive, semantic: Semantic) -> Option<usize> {
+    primitive
+        .attributes
+        .get(&Checked::Valid(semantic))
+        .map(|a| a.value())
+}
+
+/// The `n` texture coordinates of the set `tex_coord` the material samples (zero where it
+/// samples none, or the primitive lacks them: a warning then).
+fn texture_coordinates(
+    doc: &mut Document,
+    primitive: &json::mesh::Primitive,
+    tex_coord: Option<u32>,
+    n: usize,
+    field: &str,
+) -> Result<Vec<Vec2>, ImportError> {
+    let path = doc.path.clone();
+    Ok(    match tex_coord.and_then(|set| attribute(primitive, Semantic::TexCoords(set)).map(|a| (set, a)))
     {
         Some((set, a)) => {
             let f = format!("{field}.attributes.TEXCOORD_{set}");
@@ -310,8 +344,18 @@ fn add_primitive(
             }
             vec![Vec2::ZERO; n]
         }
-    };
-    let colors = match attribute(Semantic::Colors(0)) {
+    })
+}
+
+/// The `n` vertex colours of `COLOR_0` as linear RGBA (white where there is none).
+fn vertex_colors(
+    doc: &mut Document,
+    primitive: &json::mesh::Primitive,
+    n: usize,
+    field: &str,
+) -> Result<Vec<Vec4>, ImportError> {
+    let path = doc.path.clone();
+    Ok(    match attribute(primitive, Semantic::Colors(0)) {
         Some(a) => {
             let f = format!("{field}.attributes.COLOR_0");
             let v = accessor::read(doc, a, &f)?;
@@ -331,9 +375,18 @@ fn add_primitive(
                 .collect()
         }
         None => vec![Vec4::ONE; n],
-    };
+    })
+}
 
-    let indices = match primitive.indices {
+/// The primitive's vertex indices (all `n` in order where it has none), each checked.
+fn vertex_indices(
+    doc: &mut Document,
+    primitive: &json::mesh::Primitive,
+    n: usize,
+    field: &str,
+) -> Result<Vec<u32>, ImportError> {
+    let path = doc.path.clone();
+    Ok(    match primitive.indices {
         Some(i) => {
             let f = format!("{field}.indices");
             let indices = accessor::read_indices(doc, i.value(), &f)?;
@@ -347,39 +400,34 @@ fn add_primitive(
             indices
         }
         None => (0..n as u32).collect(),
-    };
-    let corners = triangulate(mode, &indices);
-    // Instancing multiplies what a small file holds: check the scene's size before growing it.
-    let limits = doc.limits;
-    let what = "the triangles of the scene with every node instanced";
-    limits
-        .check_triangles((b.mesh.triangles.len() + corners.len()) as u64, what)
-        .and_then(|_| {
-            limits.check_triangles(
-                ((b.mesh.positions.len() + n) / 3) as u64,
-                "a third of the scene's vertices with every node instanced",
-            )
-        })
-        .map_err(|e| ImportError::invalid(&path, &field, e))?;
+    })
+}
 
+/// Appends a primitive's vertices (transformed by `world`) and triangles to the mesh; a
+/// mirroring transform swaps each triangle's winding so fronts stay fronts.
+fn append(
+    b: &mut Builder,
+    world: DMat4,
+    positions: &[f64],
+    uvs: Vec<Vec2>,
+    colors: Vec<Vec4>,
+    corners: &[[u32; 3]],
+    material: u32,
+) -> Result<(), &'static str> {
     let base = b.mesh.positions.len() as u32;
     let mirrored = world.determinant() < 0.0;
-    for p in positions.data.chunks_exact(3) {
+    for p in positions.chunks_exact(3) {
         let q = world
             .transform_point3(DVec3::new(p[0], p[1], p[2]))
             .as_vec3();
         if !q.is_finite() {
-            return Err(ImportError::invalid(
-                &path,
-                &pfield,
-                "a transformed position overflows",
-            ));
+            return Err("a transformed position overflows");
         }
         b.mesh.positions.push(q);
     }
     b.mesh.uvs.extend(uvs);
     b.mesh.colors.extend(colors);
-    for [i, j, k] in corners {
+    for &[i, j, k] in corners {
         if i == j || j == k || i == k {
             continue;
         }

@@ -222,6 +222,22 @@ fn tree_meshes(
 }
 
 impl LoadedScene {
+    /// The scene the renderer draws, in the frame of a camera at `eye`.
+    pub fn into_scene(self, eye: glam::DVec3, lighting: super::Lighting) -> super::Scene {
+        let scene = super::Scene::new(
+            eye,
+            self.texels,
+            self.looks,
+            &self.placed,
+            Some(self.terrain.mesh),
+            lighting,
+        );
+        match self.meshes {
+            Some(m) => scene.with_meshes(m),
+            None => scene,
+        }
+    }
+
     /// Height of the terrain's surface above (x, z), if any.
     pub fn ground_height(&self, x: f64, z: f64) -> Option<f64> {
         crate::terrain::Terrain::from_model(self.terrain.clone()).height_at(x, z)
