@@ -36,6 +36,14 @@ pub enum CompareError {
         b: PathBuf,
         b_size: String,
     },
+    #[error("{file}: cannot read the mask as a picture: {message}")]
+    Mask { file: PathBuf, message: String },
+    #[error("{file}: the mask is {mask_size} but the images are {image_size}")]
+    MaskSize {
+        file: PathBuf,
+        mask_size: String,
+        image_size: String,
+    },
 }
 
 /// The R, G, B, A pixels of an EXR's data window.
@@ -166,6 +174,34 @@ pub struct Comparison {
     pub alpha: Metrics,
 }
 
+impl Comparison {
+    /// The metrics as a table under `title`, as `texel compare` prints them.
+    pub fn to_text(&self, title: &str) -> String {
+        let mut s = format!("{title}: {} pixels", self.pixels);
+        if self.non_finite > 0 {
+            s += &format!(", {} of them not finite (left out)", self.non_finite);
+        }
+        s += "\n           rmse   rel. mse   mean |e|     max |e|\n";
+        s += &self.rgb.line("rgb");
+        s += &self.alpha.line("alpha");
+        s
+    }
+}
+
+impl Metrics {
+    fn line(&self, name: &str) -> String {
+        format!(
+            "  {name:<6} {:>11.6} {:>11.6} {:>11.6} {:>11.6} at ({}, {})\n",
+            self.rmse,
+            self.relative_mse,
+            self.mean_absolute,
+            self.max,
+            self.max_at[0],
+            self.max_at[1]
+        )
+    }
+}
+
 #[derive(Default)]
 struct Sums {
     squared: f64,
@@ -200,6 +236,50 @@ impl Sums {
             max_at: self.max_at,
         }
     }
+}
+
+/// Which pixels (by index) a mask marks as inside: alpha above 0.5 in an EXR, luminance above
+/// 127 in any other picture. The mask must be `size` (width, height) pixels.
+pub fn read_mask(
+    path: &Path,
+    size: (usize, usize),
+    limits: &Limits,
+) -> Result<Vec<bool>, CompareError> {
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let (width, height, inside) = if is_exr {
+        let m = Rgba::read(path, limits)?;
+        let inside = m.pixels.iter().map(|p| p[3] > 0.5).collect();
+        (m.width, m.height, inside)
+    } else {
+        let mask_error = |message: String| CompareError::Mask {
+            file: path.to_path_buf(),
+            message,
+        };
+        let mut reader = image::ImageReader::open(path)
+            .and_then(|r| r.with_guessed_format())
+            .map_err(|e| mask_error(e.to_string()))?;
+        let mut image_limits = image::Limits::default();
+        let side = (limits.pixels as f64).sqrt().min(u32::MAX as f64) as u32;
+        image_limits.max_image_width = Some(side.max(size.0 as u32));
+        image_limits.max_image_height = Some(side.max(size.1 as u32));
+        reader.limits(image_limits);
+        let m = reader
+            .decode()
+            .map_err(|e| mask_error(e.to_string()))?
+            .to_luma8();
+        let inside = m.pixels().map(|p| p.0[0] > 127).collect();
+        (m.width() as usize, m.height() as usize, inside)
+    };
+    if (width, height) != size {
+        return Err(CompareError::MaskSize {
+            file: path.to_path_buf(),
+            mask_size: format!("{width}x{height}"),
+            image_size: format!("{}x{}", size.0, size.1),
+        });
+    }
+    Ok(inside)
 }
 
 /// Checks that `a` and `b` (read from the named files) cover the same window.

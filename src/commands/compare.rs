@@ -1,11 +1,7 @@
 //! `texel compare`: the error of a render against a reference, as text or JSON, with an
 //! optional false-colour picture of where it lies.
 
-use std::path::Path;
-
-use anyhow::{Context, bail};
-
-use texel_forest::compare::{Comparison, Metrics, Rgba, check_same_window, compare, heatmap};
+use texel_forest::compare::{Rgba, check_same_window, compare, heatmap, read_mask};
 use texel_forest::limits::Limits;
 use texel_forest::output::Outputs;
 
@@ -18,60 +14,6 @@ pub const TOO_DIFFERENT: u8 = 3;
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct TooDifferent(pub String);
-
-/// Which pixels (by index) a mask file marks as inside.
-fn read_mask(path: &Path, like: &Rgba, limits: &Limits) -> anyhow::Result<Vec<bool>> {
-    let is_exr = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    let (width, height, inside) = if is_exr {
-        let m = Rgba::read(path, limits)?;
-        let inside = m.pixels.iter().map(|p| p[3] > 0.5).collect();
-        (m.width, m.height, inside)
-    } else {
-        let mut reader = image::ImageReader::open(path)
-            .and_then(|r| r.with_guessed_format())
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let mut image_limits = image::Limits::default();
-        let side = (limits.pixels as f64).sqrt().min(u32::MAX as f64) as u32;
-        image_limits.max_image_width = Some(side.max(like.width as u32));
-        image_limits.max_image_height = Some(side.max(like.height as u32));
-        reader.limits(image_limits);
-        let m = reader
-            .decode()
-            .with_context(|| format!("{}: cannot read the mask as a picture", path.display()))?
-            .to_luma8();
-        let inside = m.pixels().map(|p| p.0[0] > 127).collect();
-        (m.width() as usize, m.height() as usize, inside)
-    };
-    if (width, height) != (like.width, like.height) {
-        bail!(
-            "{}: the mask is {width}x{height} but the images are {}x{}",
-            path.display(),
-            like.width,
-            like.height
-        );
-    }
-    Ok(inside)
-}
-
-fn metrics_line(name: &str, m: &Metrics) -> String {
-    format!(
-        "  {name:<6} {:>11.6} {:>11.6} {:>11.6} {:>11.6} at ({}, {})\n",
-        m.rmse, m.relative_mse, m.mean_absolute, m.max, m.max_at[0], m.max_at[1]
-    )
-}
-
-fn block(title: &str, c: &Comparison) -> String {
-    let mut s = format!("{title}: {} pixels", c.pixels);
-    if c.non_finite > 0 {
-        s += &format!(", {} of them not finite (left out)", c.non_finite);
-    }
-    s += "\n           rmse   rel. mse   mean |e|     max |e|\n";
-    s += &metrics_line("rgb", &c.rgb);
-    s += &metrics_line("alpha", &c.alpha);
-    s
-}
 
 pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     let mut inputs = vec![args.image.as_path(), args.reference.as_path()];
@@ -88,7 +30,7 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     let all = compare(&a, &b, |_| true);
     let masked = match &args.mask {
         Some(path) => {
-            let inside = read_mask(path, &a, limits)?;
+            let inside = read_mask(path, (a.width, a.height), limits)?;
             Some(compare(&a, &b, |i| inside[i]))
         }
         None => None,
@@ -122,9 +64,9 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
             a.width,
             a.height
         );
-        text += &block("all", &all);
+        text += &all.to_text("all");
         if let Some(m) = &masked {
-            text += &block("inside the mask", m);
+            text += &m.to_text("inside the mask");
         }
         if let Some(path) = &args.heatmap {
             text += &format!(

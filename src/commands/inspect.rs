@@ -6,7 +6,7 @@ use anyhow::{Context, bail};
 
 use texel_forest::formats::{container, instances, texel};
 use texel_forest::input::{self, MAX_GLTF, MAX_SPECIES};
-use texel_forest::inspect::FileFacts;
+use texel_forest::inspect::{FileFacts, Kind};
 use texel_forest::inspect::{
     instances as forest_view, pictures, terrain as terrain_view, texel as summary,
 };
@@ -52,37 +52,6 @@ fn write_png(
 }
 
 /// What a file is: by its magic, else by its name.
-enum Kind {
-    Texel,
-    Instances,
-    Terrain,
-}
-
-fn kind_of(path: &Path, head: &[u8]) -> anyhow::Result<Kind> {
-    if head.starts_with(texel::MAGIC) {
-        return Ok(Kind::Texel);
-    }
-    if head.starts_with(instances::MAGIC) {
-        return Ok(Kind::Instances);
-    }
-    let extension = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    match extension.as_deref() {
-        // A damaged file is reported by the reader of the kind its name says.
-        Some("texel") => Ok(Kind::Texel),
-        Some("instances") => Ok(Kind::Instances),
-        Some("glb" | "gltf") => Ok(Kind::Terrain),
-        _ if head.starts_with(b"glTF") || head.trim_ascii_start().starts_with(b"{") => {
-            Ok(Kind::Terrain)
-        }
-        _ => bail!(
-            "{}: not a .texel, .instances or glTF terrain file (its first bytes match none of them)",
-            path.display()
-        ),
-    }
-}
-
 pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
     let file = &args.file;
     let mut outputs = Outputs::new(&[file]);
@@ -92,7 +61,9 @@ pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
         .map(|o| outputs.add("-o", o))
         .transpose()?;
     let head = input::read_framed(file, 16, |_| None)?;
-    match kind_of(file, &head)? {
+    match Kind::of(&head, file.extension())
+        .with_context(|| format!("{}: not a .texel, .instances or glTF terrain file (its first bytes match none of them)", file.display()))?
+    {
         Kind::Texel => run_texel(args, limits, outputs, picture),
         Kind::Instances => run_instances(args, limits, outputs, picture),
         Kind::Terrain => run_terrain(args, limits, outputs, picture),

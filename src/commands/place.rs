@@ -62,7 +62,10 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
     let size = bytes.len();
     outputs.set(forest_out, bytes);
     if let Some(dep) = dep_out {
-        outputs.set(dep, depfile(&args.output, &inputs.dependencies).into_bytes());
+        outputs.set(
+            dep,
+            depfile(&args.output, &inputs.dependencies).into_bytes(),
+        );
     }
     outputs.commit()?;
     if !quiet {

@@ -127,11 +127,7 @@ fn plan(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Planned> {
 
 /// The camera the flags ask for (the forest framed by default), with a warning when the eye
 /// is under the terrain.
-fn camera(
-    args: &RenderArgs,
-    scene: &LoadedScene,
-    views: &import::Model,
-) -> anyhow::Result<Camera> {
+fn camera(args: &RenderArgs, scene: &LoadedScene, views: &import::Model) -> anyhow::Result<Camera> {
     let choice = match (args.eye, args.target, &args.camera) {
         (Some(eye), Some(target), _) => CameraChoice::LookAt { eye, target },
         (_, _, Some(name)) => CameraChoice::Named(name),

@@ -218,60 +218,94 @@ pub(super) fn read(doc: &mut Document, index: usize, field: &str) -> Result<Valu
     }
 
     if let Some(sparse) = sparse {
-        let n = sparse.count.0;
-        if n > count {
-            return Err(ImportError::invalid(
-                &path,
-                format!("{here}.sparse.count"),
-                format!("{n} substitutions for {count} elements"),
-            ));
-        }
-        let Checked::Valid(json::accessor::IndexComponentType(ict)) = sparse.indices.component_type
-        else {
-            return Err(ImportError::invalid(
-                &path,
-                format!("{here}.sparse.indices.componentType"),
-                "invalid",
-            ));
+        let element = Element {
+            ct,
+            normalized,
+            components,
         };
-        let isize_ = component_size(ict);
-        let (ibytes, _) = view_window(
-            doc,
-            sparse.indices.buffer_view.value(),
-            sparse.indices.byte_offset.0,
-            n,
-            isize_,
-            Some(isize_),
-            &format!("{here}.sparse.indices"),
-        )?;
-        let targets: Vec<u64> = (0..n as usize)
-            .map(|i| decode(ict, false, &ibytes[i * isize_..(i + 1) * isize_]) as u64)
-            .collect();
-        let (vbytes, _) = view_window(
-            doc,
-            sparse.values.buffer_view.value(),
-            sparse.values.byte_offset.0,
-            n,
-            elem,
-            Some(elem),
-            &format!("{here}.sparse.values"),
-        )?;
-        for (k, &target) in targets.iter().enumerate() {
-            if target >= count {
-                return Err(ImportError::invalid(
-                    &path,
-                    format!("{here}.sparse.indices"),
-                    format!("index {target} is out of range for {count} elements"),
-                ));
-            }
-            for c in 0..components {
-                let at = k * elem + c * csize;
-                data[target as usize * components + c] =
-                    decode(ct, normalized, &vbytes[at..at + csize]);
-            }
-        }
+        substitute(doc, &here, &sparse, count, element, &mut data)?;
     }
     Ok(Values { components, data })
+}
+
+/// How an accessor's elements are stored.
+#[derive(Clone, Copy)]
+struct Element {
+    ct: ComponentType,
+    normalized: bool,
+    components: usize,
+}
+
+/// Applies accessor `here`'s sparse substitutions to its `count` elements in `data`.
+fn substitute(
+    doc: &mut Document,
+    here: &str,
+    sparse: &json::accessor::sparse::Sparse,
+    count: u64,
+    element: Element,
+    data: &mut [f64],
+) -> Result<(), ImportError> {
+    let path = doc.path.clone();
+    let Element {
+        ct,
+        normalized,
+        components,
+    } = element;
+    let csize = component_size(ct);
+    let elem = csize * components;
+    let n = sparse.count.0;
+    if n > count {
+        return Err(ImportError::invalid(
+            &path,
+            format!("{here}.sparse.count"),
+            format!("{n} substitutions for {count} elements"),
+        ));
+    }
+    let Checked::Valid(json::accessor::IndexComponentType(ict)) = sparse.indices.component_type
+    else {
+        return Err(ImportError::invalid(
+            &path,
+            format!("{here}.sparse.indices.componentType"),
+            "invalid",
+        ));
+    };
+    let isize_ = component_size(ict);
+    let (ibytes, _) = view_window(
+        doc,
+        sparse.indices.buffer_view.value(),
+        sparse.indices.byte_offset.0,
+        n,
+        isize_,
+        Some(isize_),
+        &format!("{here}.sparse.indices"),
+    )?;
+    let targets: Vec<u64> = (0..n as usize)
+        .map(|i| decode(ict, false, &ibytes[i * isize_..(i + 1) * isize_]) as u64)
+        .collect();
+    let (vbytes, _) = view_window(
+        doc,
+        sparse.values.buffer_view.value(),
+        sparse.values.byte_offset.0,
+        n,
+        elem,
+        Some(elem),
+        &format!("{here}.sparse.values"),
+    )?;
+    for (k, &target) in targets.iter().enumerate() {
+        if target >= count {
+            return Err(ImportError::invalid(
+                &path,
+                format!("{here}.sparse.indices"),
+                format!("index {target} is out of range for {count} elements"),
+            ));
+        }
+        for c in 0..components {
+            let at = k * elem + c * csize;
+            data[target as usize * components + c] =
+                decode(ct, normalized, &vbytes[at..at + csize]);
+        }
+    }
+    Ok(())
 }
 
 /// Reads an index accessor: a scalar of unsigned bytes, shorts or ints.

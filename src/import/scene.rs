@@ -146,6 +146,45 @@ fn visit(
         ));
     }
     let mesh = node.mesh.map(|m| m.value());
+    collect_views(doc, b, node, world);
+    let children: Vec<usize> = node.children.iter().flatten().map(|c| c.value()).collect();
+    if node.skin.is_some() {
+        doc.warn(format!(
+            "{}: nodes[{index}] is skinned; baked in its bind pose",
+            path.display()
+        ));
+    }
+    if let Some(mesh) = mesh {
+        let Some(primitives) = doc.root.meshes.get(mesh).map(|m| m.primitives.len()) else {
+            return Err(ImportError::invalid(
+                &path,
+                format!("nodes[{index}].mesh"),
+                format!("mesh {mesh} does not exist"),
+            ));
+        };
+        for p in 0..primitives {
+            add_primitive(doc, b, mesh, p, world)?;
+        }
+    }
+    on_path[index] = true;
+    for (i, child) in children.into_iter().enumerate() {
+        visit(
+            doc,
+            b,
+            child,
+            world,
+            on_path,
+            depth + 1,
+            &format!("nodes[{index}].children[{i}]"),
+        )?;
+    }
+    on_path[index] = false;
+    Ok(())
+}
+
+/// The node's perspective camera and directional light, if it has them, placed by its
+/// `world` transform: the views a render may be asked to use.
+fn collect_views(doc: &Document, b: &mut Builder, node: &json::Node, world: DMat4) {
     let axis = |v: DVec3| world.transform_vector3(v).normalize_or_zero();
     if let Some(c) = node.camera.and_then(|c| doc.root.cameras.get(c.value()))
         && let Some(p) = &c.perspective
@@ -187,39 +226,6 @@ fn visit(
             color: l.color,
         });
     }
-    let children: Vec<usize> = node.children.iter().flatten().map(|c| c.value()).collect();
-    if node.skin.is_some() {
-        doc.warn(format!(
-            "{}: nodes[{index}] is skinned; baked in its bind pose",
-            path.display()
-        ));
-    }
-    if let Some(mesh) = mesh {
-        let Some(primitives) = doc.root.meshes.get(mesh).map(|m| m.primitives.len()) else {
-            return Err(ImportError::invalid(
-                &path,
-                format!("nodes[{index}].mesh"),
-                format!("mesh {mesh} does not exist"),
-            ));
-        };
-        for p in 0..primitives {
-            add_primitive(doc, b, mesh, p, world)?;
-        }
-    }
-    on_path[index] = true;
-    for (i, child) in children.into_iter().enumerate() {
-        visit(
-            doc,
-            b,
-            child,
-            world,
-            on_path,
-            depth + 1,
-            &format!("nodes[{index}].children[{i}]"),
-        )?;
-    }
-    on_path[index] = false;
-    Ok(())
 }
 
 fn add_primitive(
@@ -319,32 +325,35 @@ fn texture_coordinates(
     field: &str,
 ) -> Result<Vec<Vec2>, ImportError> {
     let path = doc.path.clone();
-    Ok(    match tex_coord.and_then(|set| attribute(primitive, Semantic::TexCoords(set)).map(|a| (set, a)))
-    {
-        Some((set, a)) => {
-            let f = format!("{field}.attributes.TEXCOORD_{set}");
-            let v = accessor::read(doc, a, &f)?;
-            if v.components != 2 || v.count() != n {
-                return Err(ImportError::invalid(
-                    &path,
-                    &f,
-                    format!("must be {n} VEC2 elements"),
-                ));
+    Ok(
+        match tex_coord
+            .and_then(|set| attribute(primitive, Semantic::TexCoords(set)).map(|a| (set, a)))
+        {
+            Some((set, a)) => {
+                let f = format!("{field}.attributes.TEXCOORD_{set}");
+                let v = accessor::read(doc, a, &f)?;
+                if v.components != 2 || v.count() != n {
+                    return Err(ImportError::invalid(
+                        &path,
+                        &f,
+                        format!("must be {n} VEC2 elements"),
+                    ));
+                }
+                (0..n)
+                    .map(|i| Vec2::new(v.element(i)[0] as f32, v.element(i)[1] as f32))
+                    .collect()
             }
-            (0..n)
-                .map(|i| Vec2::new(v.element(i)[0] as f32, v.element(i)[1] as f32))
-                .collect()
-        }
-        None => {
-            if let Some(set) = tex_coord {
-                doc.warn(format!(
+            None => {
+                if let Some(set) = tex_coord {
+                    doc.warn(format!(
                     "{}: {field} has a textured material but no TEXCOORD_{set}; texture sampled at (0,0)",
                     path.display()
                 ));
+                }
+                vec![Vec2::ZERO; n]
             }
-            vec![Vec2::ZERO; n]
-        }
-    })
+        },
+    )
 }
 
 /// The `n` vertex colours of `COLOR_0` as linear RGBA (white where there is none).
@@ -355,7 +364,7 @@ fn vertex_colors(
     field: &str,
 ) -> Result<Vec<Vec4>, ImportError> {
     let path = doc.path.clone();
-    Ok(    match attribute(primitive, Semantic::Colors(0)) {
+    Ok(match attribute(primitive, Semantic::Colors(0)) {
         Some(a) => {
             let f = format!("{field}.attributes.COLOR_0");
             let v = accessor::read(doc, a, &f)?;
@@ -386,7 +395,7 @@ fn vertex_indices(
     field: &str,
 ) -> Result<Vec<u32>, ImportError> {
     let path = doc.path.clone();
-    Ok(    match primitive.indices {
+    Ok(match primitive.indices {
         Some(i) => {
             let f = format!("{field}.indices");
             let indices = accessor::read_indices(doc, i.value(), &f)?;

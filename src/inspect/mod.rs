@@ -5,6 +5,38 @@ pub mod pictures;
 pub mod terrain;
 pub mod texel;
 
+/// The kinds of file `texel inspect` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Texel,
+    Instances,
+    Terrain,
+}
+
+impl Kind {
+    /// The kind of a file from its first bytes (16 suffice) and its name's extension, or
+    /// `None` for none of them. A magic number decides first; a damaged file is then taken for
+    /// the kind its name says, so that kind's reader reports the damage.
+    pub fn of(head: &[u8], extension: Option<&std::ffi::OsStr>) -> Option<Kind> {
+        if head.starts_with(crate::formats::texel::MAGIC) {
+            return Some(Kind::Texel);
+        }
+        if head.starts_with(crate::formats::instances::MAGIC) {
+            return Some(Kind::Instances);
+        }
+        let extension = extension.map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match extension.as_deref() {
+            Some("texel") => Some(Kind::Texel),
+            Some("instances") => Some(Kind::Instances),
+            Some("glb" | "gltf") => Some(Kind::Terrain),
+            _ if head.starts_with(b"glTF") || head.trim_ascii_start().starts_with(b"{") => {
+                Some(Kind::Terrain)
+            }
+            _ => None,
+        }
+    }
+}
+
 /// What a container file says about itself that its decoded content does not carry.
 #[derive(Clone, Copy, Debug)]
 pub struct FileFacts {

@@ -184,8 +184,19 @@ pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
     }
 }
 
+/// The summary as the lines `texel inspect` prints: the grid, the materials, what the
+/// channels hold, and how the file was made.
 pub fn to_text(s: &Summary) -> String {
     let mut o = String::new();
+    write_grid(&mut o, s);
+    write_materials(&mut o, s);
+    write_contents(&mut o, s);
+    write_provenance(&mut o, s);
+    o
+}
+
+/// Format, size, resolution, levels, bounds and the density model.
+fn write_grid(o: &mut String, s: &Summary) {
     let l0 = &s.levels[0];
     let _ = writeln!(
         o,
@@ -232,6 +243,10 @@ pub fn to_text(s: &Summary) -> String {
         "triangles     {} ({} foliage)",
         s.triangles, s.foliage_triangles
     );
+}
+
+/// Each material's part (wood or foliage) and why.
+fn write_materials(o: &mut String, s: &Summary) {
     if s.materials.is_empty() {
         let _ = writeln!(o, "materials     not recorded (a file before texel 1.1)");
     } else {
@@ -248,6 +263,10 @@ pub fn to_text(s: &Summary) -> String {
             );
         }
     }
+}
+
+/// Fill, coverage against the mesh, and each channel's range.
+fn write_contents(o: &mut String, s: &Summary) {
     let _ = writeln!(
         o,
         "fill ratio    {:.3} of cells have extinction; {:.3} of those have no normal (zero gradient)",
@@ -277,6 +296,10 @@ pub fn to_text(s: &Summary) -> String {
             c.name, c.unit, c.min, c.max, c.mean
         );
     }
+}
+
+/// The bake's parameters and its input files' hashes.
+fn write_provenance(o: &mut String, s: &Summary) {
     let p = &s.parameters;
     let gamma = p
         .requested_gamma
@@ -300,5 +323,4 @@ pub fn to_text(s: &Summary) -> String {
             hex(&src.sha256)
         );
     }
-    o
 }

@@ -105,7 +105,12 @@ pub fn load(
         });
     }
     let terrain = Terrain::load(terrain, limits)?;
-    let mut all: Vec<PathBuf> = terrain.model.sources.iter().map(|s| s.path.clone()).collect();
+    let mut all: Vec<PathBuf> = terrain
+        .model
+        .sources
+        .iter()
+        .map(|s| s.path.clone())
+        .collect();
     all.push(species.to_path_buf());
     for d in dependencies {
         if !all.contains(&d) {

@@ -191,96 +191,21 @@ pub fn place(
         attributes,
         suitability,
     } = habitat(terrain, species, settings)?;
-    let above_sea = |h: f64| settings.sea_level.is_none_or(|sea| h >= sea);
-
-    let min_suitability = species.analysis.min_suitability.max(1e-6);
-    // Bilinear suitability is a blend of four raster nodes, so a point can suit a species only
-    // next to a node that does: darts and the gap scan skip ground with no such node about.
-    let habitable: Vec<bool> = (0..raster.height.len())
-        .map(|k| suitability.iter().any(|s| s[k] >= min_suitability as f32))
-        .collect();
-    let may_take = |[a, b, c, d]: [f64; 4]| {
-        let node = |v: f64, o: f64, n: usize| {
-            ((v - o) / raster.cell - 0.5).clamp(0.0, (n - 1) as f64) as usize
-        };
-        let (i0, i1) = (
-            node(a, raster.x0, raster.nx),
-            (node(c, raster.x0, raster.nx) + 1).min(raster.nx - 1),
-        );
-        let (j0, j1) = (
-            node(b, raster.z0, raster.nz),
-            (node(d, raster.z0, raster.nz) + 1).min(raster.nz - 1),
-        );
-        (j0..=j1).any(|j| (i0..=i1).any(|i| habitable[i + raster.nx * j]))
-    };
-    let n_species = species.species.len();
-    let propose = |x: f64, z: f64, key: u64| -> Option<(f64, (u8, f64, u64))> {
-        let (cells, bilinear) = raster.bilinear(x, z);
-        if !cells.iter().any(|&c| habitable[c]) {
-            return None;
-        }
-        let weight = |i: usize| {
-            let s: f64 = (0..4)
-                .map(|k| (suitability[i][cells[k]] * bilinear[k]) as f64)
-                .sum();
-            if s >= min_suitability { s } else { 0.0 }
-        };
-        let mut weights = [0.0f64; 256];
-        for (i, w) in weights[..n_species].iter_mut().enumerate() {
-            *w = weight(i);
-        }
-        let total: f64 = weights[..n_species].iter().sum();
-        if total <= 0.0 {
-            return None;
-        }
-        // Species in proportion to suitability, so stands mix where habitats overlap.
-        let mut u = rng::unit(rng::hash3(key, rng::purpose::SPECIES, 0)) * total;
-        let mut chosen = n_species - 1;
-        for (i, &w) in weights[..n_species].iter().enumerate() {
-            if u < w {
-                chosen = i;
-                break;
-            }
-            u -= w;
-        }
-        let s = &species.species[chosen];
-        let height = s.height.min
-            + (s.height.max - s.height.min) * rng::unit(rng::hash3(key, rng::purpose::HEIGHT, 0));
-        Some((
-            stored_radius_guard(s.radius(height)),
-            (chosen as u8, height, key),
-        ))
-    };
+    let chooser = Chooser::new(&raster, &suitability, species);
     let samples = poisson::sample(
         region,
         r_min,
         r_max,
         settings.seed,
         settings.max_count,
-        may_take,
-        propose,
+        |rect| chooser.may_take(rect),
+        |x, z, key| chooser.propose(x, z, key),
     )?;
     let truncated = samples.len() >= settings.max_count;
 
-    // The raster judged habitat at its cells' centres; a tree stands on the exact ground, which
-    // must be above the sea and within its species' elevation band too.
     let mut instances: Vec<Instance> = samples
         .par_iter()
-        .filter_map(|(disc, (species_index, height, key))| {
-            let y = terrain.height_at(disc.x, disc.z)?;
-            let band = species.species[*species_index as usize].habitat.elevation;
-            if !above_sea(y) || band.is_some_and(|b| b.factor(y) <= 0.0) {
-                return None;
-            }
-            Some(Instance {
-                species: *species_index,
-                position: [disc.x, y, disc.z],
-                rotation: (rng::unit(rng::hash3(*key, rng::purpose::ROTATION, 0))
-                    * std::f64::consts::TAU) as f32,
-                scale: (height / model_heights[*species_index as usize]) as f32,
-                variation: (rng::hash3(*key, rng::purpose::VARIATION, 0) >> 48) as u16,
-            })
-        })
+        .filter_map(|(disc, choice)| stand(terrain, species, settings, model_heights, disc, choice))
         .collect();
     let morton_key = |p: &Instance| {
         let q = |v: f64, o: f64| (((v - o) * 100.0).round().max(0.0) as u64).min(u32::MAX as u64);
@@ -294,6 +219,115 @@ pub fn place(
         suitability,
         instances,
         truncated,
+    })
+}
+
+/// A dart's species and height, chosen by the suitability rasters.
+struct Chooser<'a> {
+    raster: &'a Heightfield,
+    suitability: &'a [Vec<f32>],
+    species: &'a SpeciesFile,
+    min_suitability: f64,
+    /// Raster nodes that suit at least one species.
+    habitable: Vec<bool>,
+}
+
+/// A chosen dart: species index, height (m) and its random key.
+type Choice = (u8, f64, u64);
+
+impl<'a> Chooser<'a> {
+    fn new(raster: &'a Heightfield, suitability: &'a [Vec<f32>], species: &'a SpeciesFile) -> Self {
+        let min_suitability = species.analysis.min_suitability.max(1e-6);
+        let habitable = (0..raster.height.len())
+            .map(|k| suitability.iter().any(|s| s[k] >= min_suitability as f32))
+            .collect();
+        Chooser {
+            raster,
+            suitability,
+            species,
+            min_suitability,
+            habitable,
+        }
+    }
+
+    /// Whether any tree may stand in the rectangle `[x0, z0, x1, z1]`. Bilinear suitability is
+    /// a blend of four raster nodes, so a point can suit a species only next to a node that
+    /// does: darts and the gap scan skip ground with no such node about.
+    fn may_take(&self, [a, b, c, d]: [f64; 4]) -> bool {
+        let r = self.raster;
+        let node =
+            |v: f64, o: f64, n: usize| ((v - o) / r.cell - 0.5).clamp(0.0, (n - 1) as f64) as usize;
+        let (i0, i1) = (node(a, r.x0, r.nx), (node(c, r.x0, r.nx) + 1).min(r.nx - 1));
+        let (j0, j1) = (node(b, r.z0, r.nz), (node(d, r.z0, r.nz) + 1).min(r.nz - 1));
+        (j0..=j1).any(|j| (i0..=i1).any(|i| self.habitable[i + r.nx * j]))
+    }
+
+    /// The tree a dart at (`x`, `z`) would be, with its disc radius, or `None` where no
+    /// species suits the ground. Species are drawn in proportion to suitability, so stands mix
+    /// where habitats overlap.
+    fn propose(&self, x: f64, z: f64, key: u64) -> Option<(f64, Choice)> {
+        let (cells, bilinear) = self.raster.bilinear(x, z);
+        if !cells.iter().any(|&c| self.habitable[c]) {
+            return None;
+        }
+        let n_species = self.species.species.len();
+        let weight = |i: usize| {
+            let s: f64 = (0..4)
+                .map(|k| (self.suitability[i][cells[k]] * bilinear[k]) as f64)
+                .sum();
+            if s >= self.min_suitability { s } else { 0.0 }
+        };
+        let mut weights = [0.0f64; 256];
+        for (i, w) in weights[..n_species].iter_mut().enumerate() {
+            *w = weight(i);
+        }
+        let total: f64 = weights[..n_species].iter().sum();
+        if total <= 0.0 {
+            return None;
+        }
+        let mut u = rng::unit(rng::hash3(key, rng::purpose::SPECIES, 0)) * total;
+        let mut chosen = n_species - 1;
+        for (i, &w) in weights[..n_species].iter().enumerate() {
+            if u < w {
+                chosen = i;
+                break;
+            }
+            u -= w;
+        }
+        let s = &self.species.species[chosen];
+        let height = s.height.min
+            + (s.height.max - s.height.min) * rng::unit(rng::hash3(key, rng::purpose::HEIGHT, 0));
+        Some((
+            stored_radius_guard(s.radius(height)),
+            (chosen as u8, height, key),
+        ))
+    }
+}
+
+/// The tree for an accepted dart, standing on the exact ground, or `None` where that ground
+/// is below the sea or outside its species' elevation band: the raster judged habitat at its
+/// cells' centres only.
+fn stand(
+    terrain: &Terrain,
+    species: &SpeciesFile,
+    settings: &PlaceSettings,
+    model_heights: &[f64],
+    disc: &poisson::Disc,
+    &(species_index, height, key): &Choice,
+) -> Option<Instance> {
+    let y = terrain.height_at(disc.x, disc.z)?;
+    let band = species.species[species_index as usize].habitat.elevation;
+    let above_sea = settings.sea_level.is_none_or(|sea| y >= sea);
+    if !above_sea || band.is_some_and(|b| b.factor(y) <= 0.0) {
+        return None;
+    }
+    Some(Instance {
+        species: species_index,
+        position: [disc.x, y, disc.z],
+        rotation: (rng::unit(rng::hash3(key, rng::purpose::ROTATION, 0)) * std::f64::consts::TAU)
+            as f32,
+        scale: (height / model_heights[species_index as usize]) as f32,
+        variation: (rng::hash3(key, rng::purpose::VARIATION, 0) >> 48) as u16,
     })
 }
 

@@ -79,6 +79,36 @@ impl Film {
         world_to_camera: [f32; 16],
         world_to_ndc: [f32; 16],
     ) -> std::result::Result<Exr, String> {
+        let (channels, clamped) = self.channels(half, aovs);
+        let attributes = LayerAttributes {
+            world_to_camera: Some(world_to_camera),
+            world_to_normalized_device: Some(world_to_ndc),
+            software_name: Some(Text::from(concat!(
+                "texel-forest ",
+                env!("CARGO_PKG_VERSION")
+            ))),
+            layer_position: Vec2(self.x0 as i32, self.y0 as i32),
+            ..LayerAttributes::default()
+        };
+        let layer = Layer::new(
+            (self.width as usize, self.height as usize),
+            attributes,
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(channels.into()),
+        );
+        let mut image = Image::from_layer(layer);
+        image.attributes.display_window =
+            IntegerBounds::from_dimensions((self.frame.0 as usize, self.frame.1 as usize));
+        let mut bytes = Vec::new();
+        image
+            .write()
+            .to_buffered(std::io::Cursor::new(&mut bytes))
+            .map_err(|e| e.to_string())?;
+        Ok(Exr { bytes, clamped })
+    }
+
+    /// The EXR's channels, with how many values a half could not hold.
+    fn channels(&self, half: bool, aovs: Aovs) -> (Vec<AnyChannel<FlatSamples>>, usize) {
         // No image may carry a NaN or an infinity in colour or an AOV (a compositor's blur
         // would spread it); half floats hold at most 65504, beyond which values are clamped
         // and counted rather than turned into infinities.
@@ -156,34 +186,7 @@ impl Film {
                 FlatSamples::F32(finite(&self.shadow_rays)),
             ));
         }
-        let attributes = LayerAttributes {
-            world_to_camera: Some(world_to_camera),
-            world_to_normalized_device: Some(world_to_ndc),
-            software_name: Some(Text::from(concat!(
-                "texel-forest ",
-                env!("CARGO_PKG_VERSION")
-            ))),
-            layer_position: Vec2(self.x0 as i32, self.y0 as i32),
-            ..LayerAttributes::default()
-        };
-        let layer = Layer::new(
-            (self.width as usize, self.height as usize),
-            attributes,
-            Encoding::SMALL_LOSSLESS,
-            AnyChannels::sort(channels.into()),
-        );
-        let mut image = Image::from_layer(layer);
-        image.attributes.display_window =
-            IntegerBounds::from_dimensions((self.frame.0 as usize, self.frame.1 as usize));
-        let mut bytes = Vec::new();
-        image
-            .write()
-            .to_buffered(std::io::Cursor::new(&mut bytes))
-            .map_err(|e| e.to_string())?;
-        Ok(Exr {
-            bytes,
-            clamped: clamped.get(),
-        })
+        (channels, clamped.get())
     }
 
     /// An sRGB picture for people: the radiance composited over `sky` (linear), clipped.

@@ -274,35 +274,17 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         );
         segment += 1;
         out.samples += 1;
-        // Everything the instances containing the sample say, sigma-weighted.
-        let (mut sigma, mut albedo, mut gradient, mut densest) =
-            (0.0f32, Vec3::ZERO, Vec3::ZERO, (0.0f32, 0u16));
         let cell_here = walk
             .active
             .iter()
             .map(|a| a.step)
             .fold(f32::INFINITY, f32::min);
-        for a in &walk.active {
-            let inst = scene.instances.get(a.instance);
-            let look = &scene.looks[inst.look as usize];
-            let f = scene.texels[look.texel].levels[a.level].fetch(a.c0 + a.dc * ts);
-            let (wood, foliage) = (
-                a.sigma_scale * f.density[0],
-                a.sigma_scale * look.foliage * f.density[1],
-            );
-            let s = wood + foliage;
-            if s <= 0.0 {
-                continue;
-            }
-            sigma += s;
-            albedo += f.albedo[0] * wood + look.foliage_albedo * foliage;
-            // Gradients are linear in density; per metre of the frame they shrink with scale.
-            gradient += inst.dir_to_world(f.gradient[0] + f.gradient[1] * look.foliage)
-                * (a.sigma_scale / inst.scale);
-            if s > densest.0 {
-                densest = (s, inst.look);
-            }
-        }
+        let Mix {
+            sigma,
+            albedo,
+            gradient,
+            densest,
+        } = mix(scene, &walk.active, ts);
         let length = end - t;
         t = end;
         if sigma <= 0.0 {
@@ -350,8 +332,62 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         }
     }
     out.canopy = 1.0 - transmittance;
-    // The surface: where the trees' opacity reaches half of what the ray ends with (all of
-    // it when the terrain stops the ray), else the terrain below.
+    let lighting = GroundLight { spread, key, march };
+    finish(scene, ray, ground_hit, transmittance, &lighting, &mut out);
+    out
+}
+
+/// What the instances containing a sample say, sigma-weighted: their total extinction, their
+/// albedo and gradient weighted by it, and the densest one's look.
+struct Mix {
+    sigma: f32,
+    albedo: Vec3,
+    gradient: Vec3,
+    densest: (f32, u16),
+}
+
+fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
+    let mut m = Mix {
+        sigma: 0.0,
+        albedo: Vec3::ZERO,
+        gradient: Vec3::ZERO,
+        densest: (0.0, 0),
+    };
+    for a in active {
+        let inst = scene.instances.get(a.instance);
+        let look = &scene.looks[inst.look as usize];
+        let f = scene.texels[look.texel].levels[a.level].fetch(a.c0 + a.dc * ts);
+        let (wood, foliage) = (
+            a.sigma_scale * f.density[0],
+            a.sigma_scale * look.foliage * f.density[1],
+        );
+        let s = wood + foliage;
+        if s <= 0.0 {
+            continue;
+        }
+        m.sigma += s;
+        m.albedo += f.albedo[0] * wood + look.foliage_albedo * foliage;
+        // Gradients are linear in density; per metre of the frame they shrink with scale.
+        m.gradient += inst.dir_to_world(f.gradient[0] + f.gradient[1] * look.foliage)
+            * (a.sigma_scale / inst.scale);
+        if s > m.densest.0 {
+            m.densest = (s, inst.look);
+        }
+    }
+    m
+}
+
+/// The end of a view ray: its surface (where the trees' opacity reaches half of what the ray
+/// ends with, all of it when the terrain stops the ray, else the terrain below), and what lies
+/// behind the trees: the terrain, the sky's radiance, or the transparent sky.
+fn finish(
+    scene: &Scene,
+    ray: Ray,
+    ground_hit: Option<(&super::Ground, (u32, crate::geom::TriangleHit))>,
+    transmittance: f32,
+    l: &GroundLight,
+    out: &mut Radiance,
+) {
     let half = if ground_hit.is_some() {
         0.5
     } else {
@@ -366,39 +402,8 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         }
     });
     match ground_hit {
-        Some((g, (tri, hit))) if transmittance >= march.cutoff => {
-            let p = ray.dir * hit.t;
-            let normal = g.normal(tri, dir);
-            let triangle = &g.mesh.triangles[tri as usize];
-            let albedo = g.mesh.base_color(triangle, hit.w).truncate();
-            let lift = p + normal * (1e-4 * hit.t.max(1.0));
-            let lit = if normal.dot(sun.direction) > 0.0 {
-                roulette(
-                    transmittance,
-                    march,
-                    rng::hash3(key, 0, purpose::GROUND_ROULETTE),
-                    &mut out.shadow_rays,
-                    || {
-                        sun_light(
-                            scene,
-                            lift,
-                            hit.t * spread,
-                            rng::hash3(key, 0, purpose::GROUND_LIGHT),
-                            march,
-                        )
-                    },
-                )
-            } else {
-                0.0
-            };
-            let source = shade_ground(scene, albedo, normal, lit);
-            out.rgb += source * transmittance;
-            if out.distance.is_infinite() {
-                out.distance = hit.t;
-                out.normal = normal;
-                out.albedo = albedo;
-            }
-            out.transmittance = 0.0;
+        Some((g, hit)) if transmittance >= l.march.cutoff => {
+            light_ground(scene, g, ray, hit, transmittance, l, out);
         }
         Some(_) => out.transmittance = 0.0,
         None => {
@@ -410,7 +415,59 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
             }
         }
     }
-    out
+}
+
+/// What the terrain's shadow ray needs of its view ray.
+struct GroundLight<'a> {
+    spread: f32,
+    key: u64,
+    march: &'a March,
+}
+
+/// The terrain where the view `ray` hits it, seen through `transmittance` of trees: lit by
+/// the sun through the trees (by roulette, as a tree sample is), and the surface where no tree
+/// was one.
+fn light_ground(
+    scene: &Scene,
+    g: &super::Ground,
+    ray: Ray,
+    (tri, hit): (u32, crate::geom::TriangleHit),
+    transmittance: f32,
+    l: &GroundLight,
+    out: &mut Radiance,
+) {
+    let p = ray.dir * hit.t;
+    let normal = g.normal(tri, ray.dir);
+    let triangle = &g.mesh.triangles[tri as usize];
+    let albedo = g.mesh.base_color(triangle, hit.w).truncate();
+    let lift = p + normal * (1e-4 * hit.t.max(1.0));
+    let lit = if normal.dot(scene.sun.direction) > 0.0 {
+        roulette(
+            transmittance,
+            l.march,
+            rng::hash3(l.key, 0, purpose::GROUND_ROULETTE),
+            &mut out.shadow_rays,
+            || {
+                sun_light(
+                    scene,
+                    lift,
+                    hit.t * l.spread,
+                    rng::hash3(l.key, 0, purpose::GROUND_LIGHT),
+                    l.march,
+                )
+            },
+        )
+    } else {
+        0.0
+    };
+    let source = shade_ground(scene, albedo, normal, lit);
+    out.rgb += source * transmittance;
+    if out.distance.is_infinite() {
+        out.distance = hit.t;
+        out.normal = normal;
+        out.albedo = albedo;
+    }
+    out.transmittance = 0.0;
 }
 
 /// A point a ray's surface may be at: the opacity reached after a segment, and what the

@@ -33,10 +33,14 @@ pub fn camera(
 ) -> Result<Camera, String> {
     let degrees = fov.unwrap_or(DEFAULT_FOV);
     match choice {
-        CameraChoice::LookAt { eye, target } => {
-            Camera::look_at(DVec3::from(eye), DVec3::from(target), degrees, width, height)
-                .map_err(|e| format!("--eye/--target: {e}"))
-        }
+        CameraChoice::LookAt { eye, target } => Camera::look_at(
+            DVec3::from(eye),
+            DVec3::from(target),
+            degrees,
+            width,
+            height,
+        )
+        .map_err(|e| format!("--eye/--target: {e}")),
         CameraChoice::Named(name) => {
             let Some(c) = cameras.iter().find(|c| c.name == name) else {
                 let names: Vec<&str> = cameras.iter().map(|c| c.name.as_str()).collect();
