@@ -2,11 +2,13 @@
 
 mod aabb;
 mod bvh;
+mod offset;
 mod triangle;
 mod triangles;
 
 pub use aabb::Aabb;
 pub use bvh::{Bvh, NodeContent};
+pub use offset::{barycentric_point, gamma, offset_origin};
 pub use triangle::{TriangleHit, intersect_triangle};
 pub use triangles::TriangleBvh;
 

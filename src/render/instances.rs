@@ -15,7 +15,7 @@ use std::collections::BinaryHeap;
 
 use glam::Vec3;
 
-use crate::geom::{Aabb, Bvh, NodeContent, Ray, box_corners};
+use crate::geom::{Aabb, Bvh, NodeContent, Ray, box_corners, gamma};
 
 /// A placed tree in the renderer's frame.
 #[derive(Clone, Copy, Debug)]
@@ -63,6 +63,20 @@ impl Instance {
             d.y,
             -self.sin * d.x + self.cos * d.z,
         )
+    }
+
+    /// The renderer-frame point of model-space point `p` (error bound `error`), and a bound
+    /// on its error that also covers the way back: a ray leaving the point is carried into
+    /// this instance's model space again to meet its own surface, so both trips' rounding
+    /// (a few operations each, on magnitudes up to the position's) count. See
+    /// [`crate::geom::offset_origin`].
+    pub fn point_to_world(&self, p: Vec3, error: Vec3) -> (Vec3, Vec3) {
+        let world = self.position + self.dir_to_world(p * self.scale);
+        let (c, s) = (self.cos.abs(), self.sin.abs());
+        let turned = |v: Vec3| Vec3::new(c * v.x + s * v.z, v.y, s * v.x + c * v.z);
+        let magnitude = self.position.abs() + turned(p.abs() * self.scale) + world.abs();
+        let error = turned(error * self.scale) * (1.0 + gamma(5)) + magnitude * (2.0 * gamma(5));
+        (world, error)
     }
 
     /// `ray` in the instance's model space, with the same parameter `t`.

@@ -436,11 +436,10 @@ fn light_ground(
     l: &GroundLight,
     out: &mut Radiance,
 ) {
-    let p = ray.dir * hit.t;
     let normal = g.normal(tri, ray.dir);
     let triangle = &g.mesh.triangles[tri as usize];
     let albedo = g.mesh.base_color(triangle, hit.w).truncate();
-    let lift = p + normal * (1e-4 * hit.t.max(1.0));
+    let lift = g.leave(tri, &hit, normal, scene.sun.direction);
     let lit = if normal.dot(scene.sun.direction) > 0.0 {
         roulette(
             transmittance,

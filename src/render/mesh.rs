@@ -13,7 +13,7 @@ use glam::Vec3;
 use super::instances::Instance;
 use super::scene::{Scene, TreeMesh};
 use super::shading::{Radiance, shade, shade_ground, sun_radiance};
-use crate::geom::{Ray, TriangleHit};
+use crate::geom::{Ray, TriangleHit, barycentric_point, offset_origin};
 use crate::mesh_tracer::covers;
 use crate::rng;
 
@@ -81,6 +81,11 @@ fn sun_hidden(scene: &Scene, origin: Vec3, key: u64) -> bool {
     })
 }
 
+/// `n` turned to face the eye looking along `dir`: surfaces are two-sided.
+fn facing(n: Vec3, dir: Vec3) -> Vec3 {
+    if n.dot(dir) > 0.0 { -n } else { n }
+}
+
 /// Radiance along the ray from the eye in direction `dir`, from the polygon models.
 pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
     let ray = Ray {
@@ -97,25 +102,34 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
         ..Radiance::default()
     };
     let shadow_key = rng::mix64(key ^ rng::purpose::MESH_SHADOW);
-    let (normal, albedo, t, species) = if let Some(h) = nearest_tree(scene, &ray, t_max, key) {
+    // The surface seen, and where a ray leaving it towards the sun may start.
+    let sun = scene.sun.direction;
+    let (normal, albedo, t, species, leave) = if let Some(h) = nearest_tree(scene, &ray, t_max, key)
+    {
         let inst = scene.instances.get(h.instance);
         let tree = tree_of(scene, inst);
         let look = &scene.looks[inst.look as usize];
-        let n = inst
-            .dir_to_world(tree.normal(h.triangle))
-            .normalize_or(Vec3::Y);
+        let n = facing(
+            inst.dir_to_world(tree.normal(h.triangle))
+                .normalize_or(Vec3::Y),
+            dir,
+        );
         let albedo = if tree.foliage[h.triangle as usize] {
             look.foliage_albedo
         } else {
             let tri = &tree.mesh.triangles[h.triangle as usize];
             tree.mesh.base_color(tri, h.hit.w).truncate()
         };
+        let (p, error) = barycentric_point(tree.corners(h.triangle), h.hit.w);
+        let (p, error) = inst.point_to_world(p, error);
         out.canopy = 1.0;
-        (n, albedo, h.hit.t, inst.look as f32 + 1.0)
+        let leave = offset_origin(p, error, n, sun);
+        (n, albedo, h.hit.t, inst.look as f32 + 1.0, leave)
     } else if let (Some(g), Some((tri, hit))) = (&scene.ground, ground_hit) {
         let triangle = &g.mesh.triangles[tri as usize];
         let albedo = g.mesh.base_color(triangle, hit.w).truncate();
-        (g.normal(tri, dir), albedo, hit.t, 0.0)
+        let n = g.normal(tri, dir);
+        (n, albedo, hit.t, 0.0, g.leave(tri, &hit, n, sun))
     } else {
         out.transmittance = 1.0;
         if let Some(sky) = scene.sky {
@@ -124,17 +138,9 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
         }
         return out;
     };
-    // Two-sided: the face the eye sees.
-    let normal = if normal.dot(dir) > 0.0 {
-        -normal
-    } else {
-        normal
-    };
-    let p = dir * t;
-    let lit = if normal.dot(scene.sun.direction) > 0.0 {
+    let lit = if normal.dot(sun) > 0.0 {
         out.shadow_rays = 1;
-        let lift = p + normal * (1e-4 * t.max(1.0));
-        if sun_hidden(scene, lift, shadow_key) {
+        if sun_hidden(scene, leave, shadow_key) {
             0.0
         } else {
             sun_radiance(scene)

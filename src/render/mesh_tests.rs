@@ -250,3 +250,48 @@ fn an_opaque_box_baked_fine_renders_like_its_mesh() {
     );
     assert!(rms(1) < 0.1 * mean, "{} vs mean {mean}", rms(1));
 }
+
+/// A leaf 5 cm in front of another, lit through it and seen from 1.5 km: the shadow ray from
+/// the back leaf starts off its surface by the hit point's error bound (under a millimetre),
+/// not by a fraction of the distance (15 cm, which would start it beyond the front leaf), so
+/// the back leaf is exactly in shadow under the front one and exactly lit beside it.
+#[test]
+fn a_leaf_5_cm_behind_an_alpha_masked_leaf_is_in_its_shadow_from_afar() {
+    let leaf = material("leaf", 0.6, 1.0, AlphaMode::Mask { cutoff: 0.5 });
+    let front = [
+        Vec3::new(0.0, -2.0, 0.05),
+        Vec3::new(2.0, -2.0, 0.05),
+        Vec3::new(2.0, 2.0, 0.05),
+        Vec3::new(0.0, 2.0, 0.05),
+    ];
+    for distance in [10.0, 300.0, 1500.0] {
+        // Seen from 30 degrees above the leaves' plane, from the side the front leaf leaves
+        // open: the view ray passes under its edge to the back leaf.
+        let side = DVec3::new(-(30f64.to_radians().cos()), 0.0, 30f64.to_radians().sin());
+        let eye = side * distance;
+        let s = scene_of(
+            quads(&[SQUARE, front], leaf.clone()),
+            true,
+            look(),
+            (DVec3::new(-2.0, -2.0, -1.0), [16, 16, 8]),
+            eye,
+            None,
+            HEAD_ON,
+        );
+        let at = |x: f64| {
+            let dir = (DVec3::new(x, 0.3, 0.0) - eye).normalize().as_vec3();
+            mesh::radiance(&s, dir, 7)
+        };
+        let shadowed = at(0.02);
+        let lit = at(-0.5);
+        assert!(
+            (shadowed.distance as f64 - (DVec3::new(0.02, 0.3, 0.0) - eye).length()).abs() < 0.01,
+            "at {distance} m the view ray must reach the back leaf: {shadowed:?}"
+        );
+        assert_eq!(shadowed.rgb, Vec3::ZERO, "at {distance} m: {shadowed:?}");
+        assert!(
+            (lit.rgb - lit.albedo).abs().max_element() < 1e-4 && lit.albedo.x > 0.1,
+            "at {distance} m: {lit:?}"
+        );
+    }
+}

@@ -3,7 +3,7 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::geom::{Aabb, Ray, TriangleBvh, TriangleHit};
+use crate::geom::{Aabb, Ray, TriangleBvh, TriangleHit, barycentric_point, offset_origin};
 use crate::import::Mesh;
 use crate::volume::Texel;
 
@@ -109,6 +109,13 @@ impl Ground {
 
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         self.triangles.occluded(ray, 0.0, t_max, |_, _| true)
+    }
+
+    /// Where a ray leaving the hit `hit` on triangle `t` (normal `n`) in direction `dir` may
+    /// start: off the surface by its floating-point error bound, no further.
+    pub fn leave(&self, t: u32, hit: &TriangleHit, n: Vec3, dir: Vec3) -> Vec3 {
+        let (p, error) = barycentric_point(self.corners[t as usize], hit.w);
+        offset_origin(p, error, n, dir)
     }
 
     /// Geometric normal of triangle `t`, facing the side `towards` comes from.
@@ -224,10 +231,15 @@ impl TreeMesh {
         }
     }
 
-    pub(super) fn normal(&self, t: u32) -> Vec3 {
-        let [a, b, c] = self.mesh.triangles[t as usize]
+    /// Triangle `t`'s corners in model space.
+    pub(super) fn corners(&self, t: u32) -> [Vec3; 3] {
+        self.mesh.triangles[t as usize]
             .vertices
-            .map(|v| self.mesh.positions[v as usize]);
+            .map(|v| self.mesh.positions[v as usize])
+    }
+
+    pub(super) fn normal(&self, t: u32) -> Vec3 {
+        let [a, b, c] = self.corners(t);
         (b - a).cross(c - a).normalize_or(Vec3::Y)
     }
 }
