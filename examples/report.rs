@@ -52,6 +52,21 @@ const VIEWS: [View; 3] = [
     },
 ];
 
+/// Every setting of the texel renderer that trades speed for error, each tried alone at 1 spp
+/// on the default texels, so its cost and gain can be read off against the defaults.
+const SETTINGS: [(&str, &str); 10] = [
+    ("--step", "0.5"),
+    ("--step", "2"),
+    ("--cutoff", "0.01"),
+    ("--cutoff", "0.0001"),
+    ("--shadow-share", "0"),
+    ("--shadow-share", "0.2"),
+    ("--lod-bias", "-1"),
+    ("--lod-bias", "1"),
+    ("--shadow-lod", "0"),
+    ("--shadow-lod", "2"),
+];
+
 /// One measured render.
 struct Row {
     view: &'static str,
@@ -184,6 +199,126 @@ impl Report {
         }
         path
     }
+
+    /// Texels of both density models at 16, 32 and 64 cells, with their forests, as
+    /// (density, resolution, forest).
+    fn variants(&self) -> Vec<(&'static str, u32, String)> {
+        let mut variants = Vec::new();
+        for density in ["transmittance", "occupancy"] {
+            for resolution in [16, 32, 64] {
+                variants.push((density, resolution, self.variant(density, resolution)));
+            }
+        }
+        variants
+    }
+
+    /// Every way of rendering `view`, each timed and measured against the view's ground truth:
+    /// the mesh method's spp sweep, every texel variant, then the settings sweep.
+    fn measure_view(
+        &self,
+        view: &View,
+        variants: &[(&str, u32, String)],
+        default_forest: &str,
+        rows: &mut Vec<Row>,
+    ) {
+        let reference =
+            Rgba::read(&self.reference(default_forest, view), &Default::default()).unwrap();
+        eprintln!("report: the {} view...", view.name);
+        let out = format!("{}.exr", view.name);
+        let mut record = |method: &str, setting: &str, spp: u32, seconds: f64| {
+            let (rmse, relative_mse, alpha_rmse) = measure(&self.work.join(&out), &reference);
+            rows.push(Row {
+                view: view.name,
+                method: method.into(),
+                setting: setting.into(),
+                spp,
+                seconds,
+                rmse,
+                relative_mse,
+                alpha_rmse,
+            });
+        };
+        for spp in [1, 4, 16, 64] {
+            let s = spp.to_string();
+            let t = self.render(
+                default_forest,
+                view,
+                &["--method", "mesh", "--spp", &s],
+                &out,
+            );
+            record("mesh", "", spp, t);
+        }
+        for (density, resolution, forest) in variants {
+            let spps: &[u32] = if *density == "transmittance" && *resolution == 32 {
+                &[1, 4, 16]
+            } else {
+                &[1, 4]
+            };
+            for &spp in spps {
+                let s = spp.to_string();
+                let t = self.render(forest, view, &["--spp", &s], &out);
+                record(&format!("texel {density} {resolution}"), "", spp, t);
+            }
+        }
+        for (flag, value) in SETTINGS {
+            let t = self.render(default_forest, view, &[flag, value], &out);
+            record("texel transmittance 32", &format!("{flag} {value}"), 1, t);
+        }
+    }
+
+    /// Flicker: the far view with the camera moved by a fraction of a pixel between frames, as
+    /// (method, mean per-pixel standard deviation) for the mesh and texel methods.
+    fn flicker(&self, default_forest: &str) -> Vec<(&'static str, f64)> {
+        eprintln!("report: flicker...");
+        let far = &VIEWS[0];
+        self.render(default_forest, far, &[], "camera.exr");
+        let camera = camera_of(&self.work.join("camera.exr"));
+        let mut flicker = Vec::new();
+        for (method, extra) in [
+            ("mesh 1 spp", vec!["--method", "mesh"]),
+            ("mesh 4 spp", vec!["--method", "mesh", "--spp", "4"]),
+            ("mesh 16 spp", vec!["--method", "mesh", "--spp", "16"]),
+            ("texel 1 spp", vec![]),
+            ("texel 4 spp", vec!["--spp", "4"]),
+        ] {
+            let frames = self.jittered_frames(default_forest, camera, &extra);
+            flicker.push((method, mean_deviation(&frames)));
+        }
+        flicker
+    }
+
+    /// `FLICKER_FRAMES` renders of the far view with `extra` flags, the camera shifted by a
+    /// fixed sub-pixel pattern, the same for every method so their flicker compares.
+    fn jittered_frames(
+        &self,
+        forest: &str,
+        [eye, forward, right, up]: [glam::DVec3; 4],
+        extra: &[&str],
+    ) -> Vec<Rgba> {
+        let far = &VIEWS[0];
+        let distance = 1500.0;
+        let pixel = 2.0 * distance * (35f64.to_radians() / 2.0).tan() / HEIGHT as f64;
+        let mut frames = Vec::new();
+        for k in 0..FLICKER_FRAMES {
+            let (dx, dy) = ((k as f64 * 0.618_034) % 1.0, (k as f64 * 0.381_966) % 1.0);
+            let shift = (right * (dx - 0.5) + up * (dy - 0.5)) * pixel;
+            let (e, t) = (eye + shift, eye + forward * distance + shift);
+            let eye_flag = format!("--eye={},{},{}", e.x, e.y, e.z);
+            let target = format!("{},{},{}", t.x, t.y, t.z);
+            let mut args = vec![
+                eye_flag.as_str(),
+                "--target",
+                target.as_str(),
+                "--fov",
+                "35",
+            ];
+            args.extend_from_slice(extra);
+            let out = format!("flicker-{k}.exr");
+            self.render(forest, far, &args, &out);
+            frames.push(Rgba::read(&self.work.join(&out), &Default::default()).unwrap());
+        }
+        frames
+    }
 }
 
 fn measure(out: &Path, reference: &Rgba) -> (f64, f64, f64) {
@@ -226,6 +361,23 @@ fn camera_of(path: &Path) -> [glam::DVec3; 4] {
     ]
 }
 
+/// The mean over pixels and colour channels of the standard deviation across `frames`: how
+/// much a still picture shimmers as the camera moves by less than a pixel.
+fn mean_deviation(frames: &[Rgba]) -> f64 {
+    let n = frames.len() as f64;
+    let pixels = frames[0].pixels.len();
+    let mut sum = 0.0;
+    for i in 0..pixels {
+        for c in 0..3 {
+            let v: Vec<f64> = frames.iter().map(|f| f64::from(f.pixels[i][c])).collect();
+            let mean = v.iter().sum::<f64>() / n;
+            let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            sum += var.sqrt();
+        }
+    }
+    sum / (3 * pixels) as f64
+}
+
 fn main() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let texel = root.join("target/release/texel");
@@ -242,12 +394,7 @@ fn main() {
     let started = Instant::now();
 
     eprintln!("report: baking and placing the variants...");
-    let mut variants = Vec::new();
-    for density in ["transmittance", "occupancy"] {
-        for resolution in [16, 32, 64] {
-            variants.push((density, resolution, report.variant(density, resolution)));
-        }
-    }
+    let variants = report.variants();
     let default_forest = variants
         .iter()
         .find(|v| v.0 == "transmittance" && v.1 == 32)
@@ -257,113 +404,9 @@ fn main() {
 
     let mut rows: Vec<Row> = Vec::new();
     for view in &VIEWS {
-        let reference = Rgba::read(
-            &report.reference(&default_forest, view),
-            &Default::default(),
-        )
-        .unwrap();
-        eprintln!("report: the {} view...", view.name);
-        let out = format!("{}.exr", view.name);
-        let mut record = |method: &str, setting: &str, spp: u32, seconds: f64| {
-            let (rmse, relative_mse, alpha_rmse) = measure(&report.work.join(&out), &reference);
-            rows.push(Row {
-                view: view.name,
-                method: method.into(),
-                setting: setting.into(),
-                spp,
-                seconds,
-                rmse,
-                relative_mse,
-                alpha_rmse,
-            });
-        };
-        for spp in [1, 4, 16, 64] {
-            let s = spp.to_string();
-            let t = report.render(
-                &default_forest,
-                view,
-                &["--method", "mesh", "--spp", &s],
-                &out,
-            );
-            record("mesh", "", spp, t);
-        }
-        for (density, resolution, forest) in &variants {
-            let spps: &[u32] = if *density == "transmittance" && *resolution == 32 {
-                &[1, 4, 16]
-            } else {
-                &[1, 4]
-            };
-            for &spp in spps {
-                let s = spp.to_string();
-                let t = report.render(forest, view, &["--spp", &s], &out);
-                record(&format!("texel {density} {resolution}"), "", spp, t);
-            }
-        }
-        for (flag, value) in [
-            ("--step", "0.5"),
-            ("--step", "2"),
-            ("--cutoff", "0.01"),
-            ("--cutoff", "0.0001"),
-            ("--shadow-share", "0"),
-            ("--shadow-share", "0.2"),
-            ("--lod-bias", "-1"),
-            ("--lod-bias", "1"),
-            ("--shadow-lod", "0"),
-            ("--shadow-lod", "2"),
-        ] {
-            let t = report.render(&default_forest, view, &[flag, value], &out);
-            record("texel transmittance 32", &format!("{flag} {value}"), 1, t);
-        }
+        report.measure_view(view, &variants, &default_forest, &mut rows);
     }
-
-    // Flicker: the far view with the camera moved by a fraction of a pixel between frames.
-    eprintln!("report: flicker...");
-    let far = &VIEWS[0];
-    report.render(&default_forest, far, &[], "camera.exr");
-    let [eye, forward, right, up] = camera_of(&report.work.join("camera.exr"));
-    let distance = 1500.0;
-    let pixel = 2.0 * distance * (35f64.to_radians() / 2.0).tan() / HEIGHT as f64;
-    let mut flicker = Vec::new();
-    for (method, extra) in [
-        ("mesh 1 spp", vec!["--method", "mesh"]),
-        ("mesh 4 spp", vec!["--method", "mesh", "--spp", "4"]),
-        ("mesh 16 spp", vec!["--method", "mesh", "--spp", "16"]),
-        ("texel 1 spp", vec![]),
-        ("texel 4 spp", vec!["--spp", "4"]),
-    ] {
-        let mut frames = Vec::new();
-        for k in 0..FLICKER_FRAMES {
-            // A fixed sub-pixel pattern, the same for every method.
-            let (dx, dy) = ((k as f64 * 0.618_034) % 1.0, (k as f64 * 0.381_966) % 1.0);
-            let shift = (right * (dx - 0.5) + up * (dy - 0.5)) * pixel;
-            let (e, t) = (eye + shift, eye + forward * distance + shift);
-            let eye_flag = format!("--eye={},{},{}", e.x, e.y, e.z);
-            let target = format!("{},{},{}", t.x, t.y, t.z);
-            let mut args = vec![
-                eye_flag.as_str(),
-                "--target",
-                target.as_str(),
-                "--fov",
-                "35",
-            ];
-            args.extend_from_slice(&extra);
-            let out = format!("flicker-{k}.exr");
-            report.render(&default_forest, far, &args, &out);
-            frames.push(Rgba::read(&report.work.join(&out), &Default::default()).unwrap());
-        }
-        let n = frames.len() as f64;
-        let pixels = frames[0].pixels.len();
-        let mut sum = 0.0;
-        for i in 0..pixels {
-            for c in 0..3 {
-                let v: Vec<f64> = frames.iter().map(|f| f64::from(f.pixels[i][c])).collect();
-                let mean = v.iter().sum::<f64>() / n;
-                let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-                sum += var.sqrt();
-            }
-        }
-        flicker.push((method, sum / (3 * pixels) as f64));
-    }
+    let flicker = report.flicker(&default_forest);
 
     write_outputs(
         &root.join("report"),
@@ -374,6 +417,32 @@ fn main() {
 }
 
 fn write_outputs(dir: &Path, rows: &[Row], flicker: &[(&str, f64)], seconds: f64) {
+    write_csv(dir, rows);
+    let mut md = format!(
+        "# Speed against error\n\nWritten by `make report` ({seconds:.0} s). Images {WIDTH} x {HEIGHT}; \
+         error is the colour RMSE against a {REFERENCE_SPP}-spp mesh render (the ground truth); \
+         times are whole `texel render` runs on this machine.\n\n"
+    );
+    md += "## Headline\n\n| view | best texel setting | its time, error | mesh time for that error | texel faster by | texel error floor |\n|---|---|---|---|---|---|\n";
+    for view in VIEWS.iter().map(|v| v.name) {
+        write_headline(&mut md, view, rows);
+    }
+    md += "\n## Flicker (far view, camera moved by sub-pixel steps over ";
+    md += &format!(
+        "{FLICKER_FRAMES} frames; mean per-pixel standard deviation)\n\n| method | flicker |\n|---|---|\n"
+    );
+    for (m, f) in flicker {
+        writeln!(md, "| {m} | {f:.5} |").unwrap();
+    }
+    for view in VIEWS.iter().map(|v| v.name) {
+        write_view_section(&mut md, dir, view, rows);
+    }
+    std::fs::write(dir.join("README.md"), &md).unwrap();
+    print!("{md}");
+}
+
+/// Every measured render, one row each, for anyone who wants to plot or compare them.
+fn write_csv(dir: &Path, rows: &[Row]) {
     let mut csv = String::from("view,method,setting,spp,seconds,rmse,relative_mse,alpha_rmse\n");
     for r in rows {
         writeln!(
@@ -384,120 +453,117 @@ fn write_outputs(dir: &Path, rows: &[Row], flicker: &[(&str, f64)], seconds: f64
         .unwrap();
     }
     std::fs::write(dir.join("speed_vs_error.csv"), csv).unwrap();
+}
 
-    let mut md = format!(
-        "# Speed against error\n\nWritten by `make report` ({seconds:.0} s). Images {WIDTH} x {HEIGHT}; \
-         error is the colour RMSE against a {REFERENCE_SPP}-spp mesh render (the ground truth); \
-         times are whole `texel render` runs on this machine.\n\n"
-    );
-    md += "## Headline\n\n| view | best texel setting | its time, error | mesh time for that error | texel faster by | texel error floor |\n|---|---|---|---|---|---|\n";
-    for view in VIEWS.iter().map(|v| v.name) {
-        let mesh: Vec<(f64, f64)> = rows
-            .iter()
-            .filter(|r| r.view == view && r.method == "mesh")
-            .map(|r| (r.seconds, r.rmse))
-            .collect();
-        let texels: Vec<&Row> = rows
-            .iter()
-            .filter(|r| r.view == view && r.method.starts_with("texel"))
-            .collect();
-        let floor = texels
-            .iter()
-            .min_by(|a, b| a.rmse.total_cmp(&b.rmse))
-            .unwrap();
-        // The texel setting with the largest speed-up over the mesh at equal error, where the
-        // mesh curve reaches that error; else the fastest texel render.
-        let best = texels
-            .iter()
-            .filter_map(|r| mesh_time_at(&mesh, r.rmse).map(|m| (r, m, m / r.seconds)))
-            .max_by(|a, b| a.2.total_cmp(&b.2));
-        let label = |r: &Row| {
-            format!(
-                "{}{}{}",
-                r.method,
-                if r.setting.is_empty() { "" } else { ", " },
-                r.setting
-            ) + &format!(", {} spp", r.spp)
-        };
-        let floor_text = format!("{:.4} ({})", floor.rmse, label(floor));
-        match best {
-            Some((r, m, x)) => writeln!(
-                md,
-                "| {view} | {} | {:.2} s, {:.4} | {m:.2} s | {x:.2}x | {floor_text} |",
-                label(r),
-                r.seconds,
-                r.rmse
-            ),
-            None => {
-                let (t1, e1) = mesh[0];
-                let fastest = texels
-                    .iter()
-                    .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
-                    .unwrap();
-                writeln!(
-                    md,
-                    "| {view} | {} | {:.2} s, {:.4} | mesh at 1 spp: {t1:.2} s, {e1:.4} | no texel setting falls within the mesh curve | {floor_text} |",
-                    label(fastest),
-                    fastest.seconds,
-                    fastest.rmse
-                )
-            }
-        }
+/// A render's method, setting and spp, as the headline names it.
+fn row_label(r: &Row) -> String {
+    format!(
+        "{}{}{}",
+        r.method,
+        if r.setting.is_empty() { "" } else { ", " },
+        r.setting
+    ) + &format!(", {} spp", r.spp)
+}
+
+/// The headline's row for `view`: the paper's claim, how much faster the texel method is than
+/// the mesh at equal error, and the error the texel method cannot get below.
+fn write_headline(md: &mut String, view: &str, rows: &[Row]) {
+    let mesh: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r.view == view && r.method == "mesh")
+        .map(|r| (r.seconds, r.rmse))
+        .collect();
+    let texels: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.view == view && r.method.starts_with("texel"))
+        .collect();
+    let floor = texels
+        .iter()
+        .min_by(|a, b| a.rmse.total_cmp(&b.rmse))
         .unwrap();
-    }
-    md += "\n## Flicker (far view, camera moved by sub-pixel steps over ";
-    md += &format!(
-        "{FLICKER_FRAMES} frames; mean per-pixel standard deviation)\n\n| method | flicker |\n|---|---|\n"
-    );
-    for (m, f) in flicker {
-        writeln!(md, "| {m} | {f:.5} |").unwrap();
-    }
-    for view in VIEWS.iter().map(|v| v.name) {
-        writeln!(
+    // The texel setting with the largest speed-up over the mesh at equal error, where the
+    // mesh curve reaches that error; else the fastest texel render.
+    let best = texels
+        .iter()
+        .filter_map(|r| mesh_time_at(&mesh, r.rmse).map(|m| (r, m, m / r.seconds)))
+        .max_by(|a, b| a.2.total_cmp(&b.2));
+    let floor_text = format!("{:.4} ({})", floor.rmse, row_label(floor));
+    match best {
+        Some((r, m, x)) => writeln!(
             md,
-            "\n## {view} view\n\n![](speed_vs_error_{view}.png)\n\n| method | setting | spp | seconds | rmse | rel. mse | alpha rmse |\n|---|---|---|---|---|---|---|"
-        )
-        .unwrap();
-        for r in rows.iter().filter(|r| r.view == view) {
+            "| {view} | {} | {:.2} s, {:.4} | {m:.2} s | {x:.2}x | {floor_text} |",
+            row_label(r),
+            r.seconds,
+            r.rmse
+        ),
+        None => {
+            let (t1, e1) = mesh[0];
+            let fastest = texels
+                .iter()
+                .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
+                .unwrap();
             writeln!(
                 md,
-                "| {} | {} | {} | {:.2} | {:.5} | {:.5} | {:.5} |",
-                r.method, r.setting, r.spp, r.seconds, r.rmse, r.relative_mse, r.alpha_rmse
+                "| {view} | {} | {:.2} s, {:.4} | mesh at 1 spp: {t1:.2} s, {e1:.4} | no texel setting falls within the mesh curve | {floor_text} |",
+                row_label(fastest),
+                fastest.seconds,
+                fastest.rmse
             )
-            .unwrap();
         }
-        // One curve per method (the settings sweep is in the table, not the plot).
-        let mut methods: Vec<&str> = Vec::new();
-        for r in rows
-            .iter()
-            .filter(|r| r.view == view && r.setting.is_empty())
-        {
-            if !methods.contains(&r.method.as_str()) {
-                methods.push(&r.method);
-            }
-        }
-        let plot = Plot {
-            title: format!("{view} view: error against time"),
-            x_label: "seconds".into(),
-            y_label: "rmse".into(),
-            series: methods
-                .iter()
-                .enumerate()
-                .map(|(k, m)| Series {
-                    name: m.to_string(),
-                    color: PALETTE[k % PALETTE.len()],
-                    points: rows
-                        .iter()
-                        .filter(|r| r.view == view && r.setting.is_empty() && r.method == *m)
-                        .map(|r| (r.seconds, r.rmse))
-                        .collect(),
-                })
-                .collect(),
-        };
-        plot.draw(900, 560)
-            .save(dir.join(format!("speed_vs_error_{view}.png")))
-            .unwrap();
     }
-    std::fs::write(dir.join("README.md"), &md).unwrap();
-    print!("{md}");
+    .unwrap();
+}
+
+/// The section for `view`: every row in a table, and the plot of error against time written
+/// beside the README, which the section links.
+fn write_view_section(md: &mut String, dir: &Path, view: &str, rows: &[Row]) {
+    writeln!(
+        md,
+        "\n## {view} view\n\n![](speed_vs_error_{view}.png)\n\n| method | setting | spp | seconds | rmse | rel. mse | alpha rmse |\n|---|---|---|---|---|---|---|"
+    )
+    .unwrap();
+    for r in rows.iter().filter(|r| r.view == view) {
+        writeln!(
+            md,
+            "| {} | {} | {} | {:.2} | {:.5} | {:.5} | {:.5} |",
+            r.method, r.setting, r.spp, r.seconds, r.rmse, r.relative_mse, r.alpha_rmse
+        )
+        .unwrap();
+    }
+    speed_vs_error_plot(view, rows)
+        .draw(900, 560)
+        .save(dir.join(format!("speed_vs_error_{view}.png")))
+        .unwrap();
+}
+
+/// Error against time for `view`, one curve per method: the settings sweep is in the table,
+/// not the plot, where its single points would crowd the curves.
+fn speed_vs_error_plot(view: &str, rows: &[Row]) -> Plot {
+    let mut methods: Vec<&str> = Vec::new();
+    for r in rows
+        .iter()
+        .filter(|r| r.view == view && r.setting.is_empty())
+    {
+        if !methods.contains(&r.method.as_str()) {
+            methods.push(&r.method);
+        }
+    }
+    Plot {
+        title: format!("{view} view: error against time"),
+        x_label: "seconds".into(),
+        y_label: "rmse".into(),
+        series: methods
+            .iter()
+            .enumerate()
+            .map(|(k, m)| Series {
+                name: m.to_string(),
+                color: PALETTE[k % PALETTE.len()],
+                points: rows
+                    .iter()
+                    .filter(|r| r.view == view && r.setting.is_empty() && r.method == *m)
+                    .map(|r| (r.seconds, r.rmse))
+                    .collect(),
+            })
+            .collect(),
+    }
 }

@@ -152,47 +152,48 @@ fn decades(lo: f64, hi: f64) -> (f64, f64) {
     )
 }
 
-impl Plot {
-    /// The plot as a `width` x `height` picture. Non-positive or non-finite points are left out.
-    pub fn draw(&self, width: u32, height: u32) -> RgbImage {
-        let mut img = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
-        let points = || {
-            self.series
-                .iter()
-                .flat_map(|s| s.points.iter())
-                .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
-        };
-        let (x_lo, x_hi) = points().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
-            (a.min(p.0), b.max(p.0))
-        });
-        let (y_lo, y_hi) = points().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
-            (a.min(p.1), b.max(p.1))
-        });
-        let (legend_w, left, top, bottom) = (
-            self.series
-                .iter()
-                .map(|s| text_width(&s.name))
-                .max()
-                .unwrap_or(0)
-                + 50,
-            90i64,
-            50i64,
-            70i64,
-        );
-        let (x0, x1) = (left as f64, width as f64 - legend_w as f64 - 20.0);
-        let (y0, y1) = (height as f64 - bottom as f64, top as f64);
-        let black = [0, 0, 0];
+// Margins of the plot area in pixels: room for the y labels on the left, the title above and
+// the x labels and axis name below.
+const LEFT: i64 = 90;
+const TOP: i64 = 50;
+const BOTTOM: i64 = 70;
+
+const BLACK: [u8; 3] = [0, 0, 0];
+
+/// Whether a point can go on log axes: finite and positive.
+fn plottable(&(x, y): &(f64, f64)) -> bool {
+    x.is_finite() && y.is_finite() && x > 0.0 && y > 0.0
+}
+
+/// The plot area in pixels and the decades it spans, so values map to pixels the same way for
+/// the grid, the ticks and the series.
+struct Axes {
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    /// Decades (log10) at the left and right edges.
+    dx: (f64, f64),
+    /// Decades (log10) at the bottom and top edges.
+    dy: (f64, f64),
+}
+
+impl Axes {
+    fn px(&self, x: f64) -> f64 {
+        let (d0, d1) = self.dx;
+        self.x0 + (x.log10() - d0) / (d1 - d0) * (self.x1 - self.x0)
+    }
+
+    fn py(&self, y: f64) -> f64 {
+        let (d0, d1) = self.dy;
+        self.y0 + (y.log10() - d0) / (d1 - d0) * (self.y1 - self.y0)
+    }
+
+    /// Grid at 1, 2 and 5 times each decade; labels at 1 (and 2, 5 when decades are few), so
+    /// a reader can read values off without the labels crowding.
+    fn draw_grid(&self, img: &mut RgbImage) {
         let grey = [220, 220, 220];
-        text(&mut img, left, 15, &self.title, black);
-        if !x_lo.is_finite() || !y_lo.is_finite() {
-            return img;
-        }
-        let (dx0, dx1) = decades(x_lo, x_hi);
-        let (dy0, dy1) = decades(y_lo, y_hi);
-        let px = |x: f64| x0 + (x.log10() - dx0) / (dx1 - dx0) * (x1 - x0);
-        let py = |y: f64| y0 + (y.log10() - dy0) / (dy1 - dy0) * (y1 - y0);
-        // Grid at 1, 2 and 5 times each decade; labels at 1 (and 2, 5 when decades are few).
-        for (d0, d1, horizontal) in [(dx0, dx1, false), (dy0, dy1, true)] {
+        for (d0, d1, horizontal) in [(self.dx.0, self.dx.1, false), (self.dy.0, self.dy.1, true)] {
             for d in d0 as i32..=d1 as i32 {
                 for m in [1.0, 2.0, 5.0] {
                     let v = m * 10f64.powi(d);
@@ -202,68 +203,126 @@ impl Plot {
                     let labelled = m == 1.0 || d1 - d0 <= 2.0;
                     let shade = if m == 1.0 { [190, 190, 190] } else { grey };
                     if horizontal {
-                        let y = py(v);
-                        line(&mut img, (x0, y), (x1, y), shade, 1);
+                        let y = self.py(v);
+                        line(img, (self.x0, y), (self.x1, y), shade, 1);
                         if labelled {
                             let l = label(v);
-                            text(&mut img, left - 8 - text_width(&l), y as i64 - 7, &l, black);
+                            text(img, LEFT - 8 - text_width(&l), y as i64 - 7, &l, BLACK);
                         }
                     } else {
-                        let x = px(v);
-                        line(&mut img, (x, y0), (x, y1), shade, 1);
+                        let x = self.px(v);
+                        line(img, (x, self.y0), (x, self.y1), shade, 1);
                         if labelled {
                             let l = label(v);
                             text(
-                                &mut img,
+                                img,
                                 x as i64 - text_width(&l) / 2,
-                                y0 as i64 + 8,
+                                self.y0 as i64 + 8,
                                 &l,
-                                black,
+                                BLACK,
                             );
                         }
                     }
                 }
             }
         }
-        line(&mut img, (x0, y0), (x1, y0), black, 1);
-        line(&mut img, (x0, y0), (x0, y1), black, 1);
+    }
+}
+
+impl Plot {
+    /// The plot as a `width` x `height` picture. Non-positive or non-finite points are left out.
+    pub fn draw(&self, width: u32, height: u32) -> RgbImage {
+        let mut img = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
+        let legend_w = self
+            .series
+            .iter()
+            .map(|s| text_width(&s.name))
+            .max()
+            .unwrap_or(0)
+            + 50;
+        text(&mut img, LEFT, 15, &self.title, BLACK);
+        let Some(axes) = self.axes(width, height, legend_w) else {
+            return img;
+        };
+        axes.draw_grid(&mut img);
+        self.draw_axis_lines(&mut img, &axes, height);
+        self.draw_series(&mut img, &axes, width, legend_w);
+        img
+    }
+
+    /// The plot area left of the legend, spanning whole decades around every plottable point;
+    /// `None` when there is no such point, and so nothing to scale the axes to.
+    fn axes(&self, width: u32, height: u32, legend_w: i64) -> Option<Axes> {
+        let points = || {
+            self.series
+                .iter()
+                .flat_map(|s| s.points.iter())
+                .filter(|p| plottable(p))
+        };
+        let (x_lo, x_hi) = points().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+        let (y_lo, y_hi) = points().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.1), b.max(p.1))
+        });
+        if !x_lo.is_finite() || !y_lo.is_finite() {
+            return None;
+        }
+        Some(Axes {
+            x0: LEFT as f64,
+            x1: width as f64 - legend_w as f64 - 20.0,
+            y0: height as f64 - BOTTOM as f64,
+            y1: TOP as f64,
+            dx: decades(x_lo, x_hi),
+            dy: decades(y_lo, y_hi),
+        })
+    }
+
+    /// The two axes and their names, drawn over the grid.
+    fn draw_axis_lines(&self, img: &mut RgbImage, axes: &Axes, height: u32) {
+        let Axes { x0, x1, y0, y1, .. } = *axes;
+        line(img, (x0, y0), (x1, y0), BLACK, 1);
+        line(img, (x0, y0), (x0, y1), BLACK, 1);
         text(
-            &mut img,
+            img,
             ((x0 + x1) / 2.0) as i64 - text_width(&self.x_label) / 2,
             height as i64 - 28,
             &self.x_label,
-            black,
+            BLACK,
         );
-        text(&mut img, 8, top - 26, &self.y_label, black);
+        text(img, 8, TOP - 26, &self.y_label, BLACK);
+    }
+
+    /// Each series as a polyline with square markers, and its entry in the legend on the right.
+    fn draw_series(&self, img: &mut RgbImage, axes: &Axes, width: u32, legend_w: i64) {
         for (k, s) in self.series.iter().enumerate() {
             let pts: Vec<(f64, f64)> = s
                 .points
                 .iter()
-                .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
-                .map(|&(x, y)| (px(x), py(y)))
+                .filter(|p| plottable(p))
+                .map(|&(x, y)| (axes.px(x), axes.py(y)))
                 .collect();
             for w in pts.windows(2) {
-                line(&mut img, w[0], w[1], s.color, 2);
+                line(img, w[0], w[1], s.color, 2);
             }
             for &(x, y) in &pts {
                 for dy in -3..=3 {
                     for dx in -3..=3 {
-                        put(&mut img, x as i64 + dx, y as i64 + dy, s.color);
+                        put(img, x as i64 + dx, y as i64 + dy, s.color);
                     }
                 }
             }
-            let ly = top + 10 + 24 * k as i64;
+            let ly = TOP + 10 + 24 * k as i64;
             let lx = width as i64 - legend_w;
             line(
-                &mut img,
+                img,
                 (lx as f64, ly as f64 + 7.0),
                 (lx as f64 + 30.0, ly as f64 + 7.0),
                 s.color,
                 3,
             );
-            text(&mut img, lx + 38, ly, &s.name, black);
+            text(img, lx + 38, ly, &s.name, BLACK);
         }
-        img
     }
 }
 

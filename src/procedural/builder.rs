@@ -186,125 +186,26 @@ impl ModelBuilder {
     /// `external = Some(stem)` the buffer is `stem.bin` and images are `stem_N.png` beside the
     /// `.gltf`; with `None` the buffer is the GLB chunk and images live in it.
     pub fn to_gltf(&self, external: Option<&str>, generator: &str) -> GltfFiles {
-        let mut bin: Vec<u8> = Vec::new();
-        let mut views = Vec::new();
+        let mut buffer = Buffer::default();
+        let mut images = Images::default();
+        let materials: Vec<Value> = self
+            .materials
+            .iter()
+            .map(|spec| material_json(spec, external, &mut buffer, &mut images))
+            .collect();
         let mut accessors = Vec::new();
-        let mut push_view = |bin: &mut Vec<u8>, data: &[u8], target: Option<u32>| -> usize {
-            while !bin.len().is_multiple_of(4) {
-                bin.push(0);
-            }
-            let mut view =
-                json!({ "buffer": 0, "byteOffset": bin.len(), "byteLength": data.len() });
-            if let Some(t) = target {
-                view["target"] = json!(t);
-            }
-            bin.extend_from_slice(data);
-            views.push(view);
-            views.len() - 1
-        };
-        let mut images = Vec::new();
-        let mut image_files = Vec::new();
-        let mut textures = Vec::new();
-        let mut materials = Vec::new();
-        for spec in &self.materials {
-            let mut pbr = json!({ "baseColorFactor": spec.color, "metallicFactor": 0.0, "roughnessFactor": 0.9 });
-            let mut material = json!({ "name": spec.name, "doubleSided": true });
-            if let Some((img, cutoff)) = &spec.mask {
-                let png = crate::png::encode(img);
-                match external {
-                    Some(stem) => {
-                        let name = format!("{stem}_{}.png", images.len());
-                        images.push(json!({ "uri": name }));
-                        image_files.push((name, png));
-                    }
-                    None => {
-                        let view = push_view(&mut bin, &png, None);
-                        images.push(json!({ "bufferView": view, "mimeType": "image/png" }));
-                    }
-                }
-                textures.push(json!({ "source": images.len() - 1, "sampler": 0 }));
-                pbr["baseColorTexture"] = json!({ "index": textures.len() - 1 });
-                material["alphaMode"] = json!("MASK");
-                material["alphaCutoff"] = json!(cutoff);
-            }
-            material["pbrMetallicRoughness"] = pbr;
-            materials.push(material);
-        }
         let mut primitives = Vec::new();
         for (m, part) in self.parts.iter().enumerate() {
             if part.indices.is_empty() {
                 continue;
             }
-            let f32s =
-                |v: &mut Vec<u8>, xs: &[f32]| v.extend(xs.iter().flat_map(|x| x.to_le_bytes()));
-            let lo = part
-                .positions
-                .iter()
-                .fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
-            let hi = part
-                .positions
-                .iter()
-                .fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
-            let mut data = Vec::new();
-            f32s(
-                &mut data,
-                &part
-                    .positions
-                    .iter()
-                    .flat_map(|p| p.to_array())
-                    .collect::<Vec<_>>(),
-            );
-            let pv = push_view(&mut bin, &data, Some(34962));
-            accessors.push(json!({ "bufferView": pv, "componentType": 5126, "count": part.positions.len(), "type": "VEC3", "min": lo.to_array(), "max": hi.to_array() }));
-            let pos = accessors.len() - 1;
-            let mut data = Vec::new();
-            f32s(
-                &mut data,
-                &part
-                    .normals
-                    .iter()
-                    .flat_map(|p| p.to_array())
-                    .collect::<Vec<_>>(),
-            );
-            let nv = push_view(&mut bin, &data, Some(34962));
-            accessors.push(json!({ "bufferView": nv, "componentType": 5126, "count": part.normals.len(), "type": "VEC3" }));
-            let nrm = accessors.len() - 1;
-            let mut data = Vec::new();
-            f32s(
-                &mut data,
-                &part
-                    .uvs
-                    .iter()
-                    .flat_map(|p| p.to_array())
-                    .collect::<Vec<_>>(),
-            );
-            let uv = push_view(&mut bin, &data, Some(34962));
-            accessors.push(json!({ "bufferView": uv, "componentType": 5126, "count": part.uvs.len(), "type": "VEC2" }));
-            let tex = accessors.len() - 1;
-            let wide = part.positions.len() > u16::MAX as usize;
-            let data: Vec<u8> = if wide {
-                part.indices.iter().flat_map(|i| i.to_le_bytes()).collect()
-            } else {
-                part.indices
-                    .iter()
-                    .flat_map(|&i| (i as u16).to_le_bytes())
-                    .collect()
-            };
-            let iv = push_view(&mut bin, &data, Some(34963));
-            accessors.push(json!({ "bufferView": iv, "componentType": if wide { 5125 } else { 5123 }, "count": part.indices.len(), "type": "SCALAR" }));
-            let idx = accessors.len() - 1;
-            primitives.push(json!({
-                "attributes": { "POSITION": pos, "NORMAL": nrm, "TEXCOORD_0": tex },
-                "indices": idx,
-                "material": m,
-            }));
+            primitives.push(primitive_json(m, part, &mut buffer, &mut accessors));
         }
-        while !bin.len().is_multiple_of(4) {
-            bin.push(0);
-        }
-        let mut buffer = json!({ "byteLength": bin.len() });
+        buffer.align();
+        let Buffer { bin, views } = buffer;
+        let mut buffer_json = json!({ "byteLength": bin.len() });
         if let Some(stem) = external {
-            buffer["uri"] = json!(format!("{stem}.bin"));
+            buffer_json["uri"] = json!(format!("{stem}.bin"));
         }
         let mut doc = json!({
             "asset": { "version": "2.0", "generator": generator },
@@ -315,20 +216,146 @@ impl ModelBuilder {
             "materials": materials,
             "accessors": accessors,
             "bufferViews": views,
-            "buffers": [buffer],
+            "buffers": [buffer_json],
         });
-        if !images.is_empty() {
-            doc["images"] = json!(images);
-            doc["textures"] = json!(textures);
+        if !images.images.is_empty() {
+            doc["images"] = json!(images.images);
+            doc["textures"] = json!(images.textures);
             doc["samplers"] =
                 json!([{ "magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071 }]);
         }
         GltfFiles {
             doc,
             bin,
-            images: image_files,
+            images: images.files,
         }
     }
+}
+
+/// The binary buffer as it fills, and the glTF buffer views that cut it up.
+#[derive(Default)]
+struct Buffer {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+}
+
+impl Buffer {
+    /// Pads to a multiple of 4 bytes: glTF wants every view, and the buffer's end, aligned
+    /// for the largest component type.
+    fn align(&mut self) {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+    }
+
+    /// Appends `data` as a new view (with `target`, for vertex and index data); returns the
+    /// view's index.
+    fn push_view(&mut self, data: &[u8], target: Option<u32>) -> usize {
+        self.align();
+        let mut view =
+            json!({ "buffer": 0, "byteOffset": self.bin.len(), "byteLength": data.len() });
+        if let Some(t) = target {
+            view["target"] = json!(t);
+        }
+        self.bin.extend_from_slice(data);
+        self.views.push(view);
+        self.views.len() - 1
+    }
+}
+
+/// The masks' pictures as glTF images and textures, and the image files an external layout
+/// writes beside the `.gltf`.
+#[derive(Default)]
+struct Images {
+    images: Vec<Value>,
+    textures: Vec<Value>,
+    files: Vec<(String, Vec<u8>)>,
+}
+
+/// One material; a masked one also gets its texture, stored in the buffer or as a file beside
+/// the document as `external` says.
+fn material_json(
+    spec: &MaterialSpec,
+    external: Option<&str>,
+    buffer: &mut Buffer,
+    images: &mut Images,
+) -> Value {
+    let mut pbr =
+        json!({ "baseColorFactor": spec.color, "metallicFactor": 0.0, "roughnessFactor": 0.9 });
+    let mut material = json!({ "name": spec.name, "doubleSided": true });
+    if let Some((img, cutoff)) = &spec.mask {
+        let png = crate::png::encode(img);
+        match external {
+            Some(stem) => {
+                let name = format!("{stem}_{}.png", images.images.len());
+                images.images.push(json!({ "uri": name }));
+                images.files.push((name, png));
+            }
+            None => {
+                let view = buffer.push_view(&png, None);
+                images
+                    .images
+                    .push(json!({ "bufferView": view, "mimeType": "image/png" }));
+            }
+        }
+        images
+            .textures
+            .push(json!({ "source": images.images.len() - 1, "sampler": 0 }));
+        pbr["baseColorTexture"] = json!({ "index": images.textures.len() - 1 });
+        material["alphaMode"] = json!("MASK");
+        material["alphaCutoff"] = json!(cutoff);
+    }
+    material["pbrMetallicRoughness"] = pbr;
+    material
+}
+
+/// One part's primitive: its positions, normals, UVs and indices each put in the buffer with
+/// an accessor, in that order.
+fn primitive_json(m: usize, part: &Part, buffer: &mut Buffer, accessors: &mut Vec<Value>) -> Value {
+    let lo = part
+        .positions
+        .iter()
+        .fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
+    let hi = part
+        .positions
+        .iter()
+        .fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
+    let data = f32_bytes(part.positions.iter().map(|p| p.to_array()));
+    let pv = buffer.push_view(&data, Some(34962));
+    accessors.push(json!({ "bufferView": pv, "componentType": 5126, "count": part.positions.len(), "type": "VEC3", "min": lo.to_array(), "max": hi.to_array() }));
+    let pos = accessors.len() - 1;
+    let data = f32_bytes(part.normals.iter().map(|p| p.to_array()));
+    let nv = buffer.push_view(&data, Some(34962));
+    accessors.push(json!({ "bufferView": nv, "componentType": 5126, "count": part.normals.len(), "type": "VEC3" }));
+    let nrm = accessors.len() - 1;
+    let data = f32_bytes(part.uvs.iter().map(|p| p.to_array()));
+    let uv = buffer.push_view(&data, Some(34962));
+    accessors.push(
+        json!({ "bufferView": uv, "componentType": 5126, "count": part.uvs.len(), "type": "VEC2" }),
+    );
+    let tex = accessors.len() - 1;
+    let wide = part.positions.len() > u16::MAX as usize;
+    let data: Vec<u8> = if wide {
+        part.indices.iter().flat_map(|i| i.to_le_bytes()).collect()
+    } else {
+        part.indices
+            .iter()
+            .flat_map(|&i| (i as u16).to_le_bytes())
+            .collect()
+    };
+    let iv = buffer.push_view(&data, Some(34963));
+    accessors.push(json!({ "bufferView": iv, "componentType": if wide { 5125 } else { 5123 }, "count": part.indices.len(), "type": "SCALAR" }));
+    let idx = accessors.len() - 1;
+    json!({
+        "attributes": { "POSITION": pos, "NORMAL": nrm, "TEXCOORD_0": tex },
+        "indices": idx,
+        "material": m,
+    })
+}
+
+/// Vectors as glTF stores them: their components, little-endian `f32`s one after another.
+fn f32_bytes<const N: usize>(vectors: impl Iterator<Item = [f32; N]>) -> Vec<u8> {
+    vectors.flatten().flat_map(f32::to_le_bytes).collect()
 }
 
 /// A glTF model as files: the JSON document, the binary buffer and any external images.

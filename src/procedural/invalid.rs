@@ -202,6 +202,12 @@ fn decompressed_payload(valid: &[u8]) -> Vec<u8> {
     zstd::decode_all(&valid[PREAMBLE + h..valid.len() - 4]).unwrap_or_default()
 }
 
+/// Adds one invalid file to the corpus: its name (without family prefix or extension), its
+/// bytes and a piece of the refusal.
+type Add<'a> = dyn FnMut(&str, Vec<u8>, &'static str) + 'a;
+
+/// Texture files valid as containers but whose contents break a rule of `formats/texel.md`,
+/// family by family, each made from one small valid texture.
 fn texel_files(files: &mut Vec<InvalidFile>) {
     let base = small_texel();
     let mut add = |name: &str, bytes: Vec<u8>, refusal| {
@@ -211,13 +217,17 @@ fn texel_files(files: &mut Vec<InvalidFile>) {
             refusal,
         })
     };
-    use texel::{Encoding, Parts};
-    let forge = |edit: &dyn Fn(&mut Parts)| texel::forge(&base, edit);
-    let edited = |edit: &dyn Fn(&mut Texel)| {
-        let mut t = base.clone();
-        edit(&mut t);
-        texel::forge(&t, |_| {})
-    };
+    texel_level_chain_files(&base, &mut add);
+    texel_channel_files(&base, &mut add);
+    texel_material_files(&base, &mut add);
+    texel_payload_layout_files(&base, &mut add);
+    texel_level_value_files(&base, &mut add);
+}
+
+/// The header's geometry: the bounds, the extinction scale and the chain of levels, whose
+/// sizes a reader must check before it trusts them to size the payload.
+fn texel_level_chain_files(base: &Texel, add: &mut Add) {
+    let forge = |edit: &dyn Fn(&mut texel::Parts)| texel::forge(base, edit);
     add(
         "bounds-nan",
         forge(&|p| p.header.model_max[1] = f64::NAN),
@@ -282,6 +292,11 @@ fn texel_files(files: &mut Vec<InvalidFile>) {
         }),
         "does not end in a single cell",
     );
+}
+
+/// The channel list: how many channels, and that each is well formed and named once.
+fn texel_channel_files(base: &Texel, add: &mut Add) {
+    let forge = |edit: &dyn Fn(&mut texel::Parts)| texel::forge(base, edit);
     add(
         "sixty-five-channels",
         forge(&|p| {
@@ -306,6 +321,11 @@ fn texel_files(files: &mut Vec<InvalidFile>) {
         }),
         "channel density_wood appears twice",
     );
+}
+
+/// The triangle accounting: the foliage count and the materials must agree with the total.
+fn texel_material_files(base: &Texel, add: &mut Add) {
+    let forge = |edit: &dyn Fn(&mut texel::Parts)| texel::forge(base, edit);
     add(
         "foliage-over-triangles",
         forge(&|p| p.header.foliage_triangles = 31),
@@ -321,6 +341,13 @@ fn texel_files(files: &mut Vec<InvalidFile>) {
         forge(&|p| p.extension.materials[1].cut = 1.5),
         "cut share of 1.5",
     );
+}
+
+/// The payload against the header: its length, and the channels a reader needs to find in it
+/// with the encoding it expects.
+fn texel_payload_layout_files(base: &Texel, add: &mut Add) {
+    use texel::Encoding;
+    let forge = |edit: &dyn Fn(&mut texel::Parts)| texel::forge(base, edit);
     add(
         "payload-length",
         forge(&|p| p.payload.extend_from_slice(&[0; 4])),
@@ -340,6 +367,16 @@ fn texel_files(files: &mut Vec<InvalidFile>) {
         }),
         "channel albedo_wood has 3 x F32",
     );
+}
+
+/// Values in the levels themselves, which only a reader that checks every cell catches: made
+/// by editing the texture and encoding it, so the header and payload agree.
+fn texel_level_value_files(base: &Texel, add: &mut Add) {
+    let edited = |edit: &dyn Fn(&mut Texel)| {
+        let mut t = base.clone();
+        edit(&mut t);
+        texel::forge(&t, |_| {})
+    };
     add(
         "density-negative",
         edited(&|t| t.levels[0].density[0][1] = -1.0),

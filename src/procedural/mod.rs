@@ -12,8 +12,13 @@ use sha2::{Digest, Sha256};
 use trees::Deciduous;
 
 use crate::bake::{self, BakeSettings};
+use crate::formats::instances::{self, ForestInfo, SpeciesRecord, decode_rotation};
 use crate::formats::texel;
+use crate::place::Instance;
 use crate::provenance::SourceFile;
+use crate::species::{
+    AutumnColour, ColourKey, Form, FractionKey, LeafHabit, LeafOut, Light, Seasons, Traits,
+};
 
 const GENERATOR: &str = "texel-forest procedural fixtures";
 
@@ -78,17 +83,16 @@ pub fn golden_texel(conifer_glb: &Path) -> anyhow::Result<Vec<u8>> {
 /// scales either side of 1, variation at its extremes, deltas of both signs, and two trees
 /// 42,000 km apart whose delta wraps modulo 2^32.
 pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
-    use crate::formats::instances::{self, ForestInfo, SpeciesRecord, decode_rotation};
-    use crate::place::Instance;
-    use crate::species::{
-        AutumnColour, ColourKey, Form, FractionKey, LeafHabit, LeafOut, Light, Seasons, Traits,
-    };
-    let source = |path: &str, fill: u8, bytes: u64| SourceFile {
-        path: path.into(),
-        sha256: [fill; 32],
-        bytes,
-    };
-    let beech = SpeciesRecord {
+    let origin = [-1000.0, 120.0, -2000.0];
+    let instances = golden_trees(origin);
+    let info = golden_forest_info(origin, vec![golden_beech(), golden_pine()]);
+    Ok(instances::encode(&instances::Forest { info, instances })?)
+}
+
+/// The golden file's deciduous species: a leafless texture, and seasons with several
+/// keyframes, so both optional fields and multi-key curves are pinned.
+fn golden_beech() -> SpeciesRecord {
+    SpeciesRecord {
         name: "beech".into(),
         texel: "trees/broadleaf.texel".into(),
         texel_sha256: [0xb1; 32],
@@ -135,8 +139,13 @@ pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
                 },
             ],
         },
-    };
-    let pine = SpeciesRecord {
+    }
+}
+
+/// The golden file's evergreen species: no leafless texture and single-key seasons, the
+/// other side of each field the beech pins.
+fn golden_pine() -> SpeciesRecord {
+    SpeciesRecord {
         name: "red pine".into(),
         texel: "trees/conifer.texel".into(),
         texel_sha256: [0xc1; 32],
@@ -163,8 +172,12 @@ pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
                 value: 1.0,
             }],
         },
-    };
-    let origin = [-1000.0, 120.0, -2000.0];
+    }
+}
+
+/// The golden file's twelve trees, given in the encoding's own units (centimetres and codes)
+/// so each lands exactly on a value the encoding can hold and decodes to what was written.
+fn golden_trees(origin: [f64; 3]) -> Vec<Instance> {
     // (x, z, y) in centimetres from the origin, species, rotation code, scale, variation.
     let trees: [(i64, i64, i64, u8, u16, f32, u16); 12] = [
         (0, 0, 0, 0, 0, 1.0, 0),
@@ -180,7 +193,7 @@ pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
         (-2_100_000_000, 5, 0, 0, 200, 1.0, 6),
         (1, 2, 3, 1, 300, 1.5, 8),
     ];
-    let instances: Vec<Instance> = trees
+    trees
         .iter()
         .map(|&(x, z, y, species, rotation, scale, variation)| Instance {
             species,
@@ -193,8 +206,18 @@ pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
             scale: instances::decode_scale(instances::encode_scale(scale)),
             variation,
         })
-        .collect();
-    let info = ForestInfo {
+        .collect()
+}
+
+/// The golden file's header: every field set to a value that tells it apart, sources with
+/// recognisable fake hashes, and the largest `max_count` so its full width is pinned.
+fn golden_forest_info(origin: [f64; 3], species: Vec<SpeciesRecord>) -> ForestInfo {
+    let source = |path: &str, fill: u8, bytes: u64| SourceFile {
+        path: path.into(),
+        sha256: [fill; 32],
+        bytes,
+    };
+    ForestInfo {
         generator: "texel-forest golden file".into(),
         terrain: vec![
             source("terrain/mountain.gltf", 0x71, 4096),
@@ -209,7 +232,6 @@ pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
         terrain_min: [-1000.0, 100.0, -2000.0],
         terrain_max: [1000.0, 480.5, 0.0],
         origin,
-        species: vec![beech, pine],
-    };
-    Ok(instances::encode(&instances::Forest { info, instances })?)
+        species,
+    }
 }
