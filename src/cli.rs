@@ -278,6 +278,10 @@ pub struct CompareArgs {
     /// (alpha above one half inside), the size of the images.
     #[arg(long, value_name = "FILE")]
     pub mask: Option<PathBuf>,
+    /// The EXR mask's channel that marks inside (above one half): e.g. `canopy.A` of a render
+    /// with `--aov canopy`, for the pixels where trees are.
+    #[arg(long, value_name = "NAME", default_value = "A", requires = "mask")]
+    pub mask_channel: String,
     /// Print the measures as JSON.
     #[arg(long)]
     pub json: bool,
@@ -367,6 +371,11 @@ pub struct RenderArgs {
     /// transparent.
     #[arg(long, value_name = "R,G,B", value_parser = radiance)]
     pub sky: Option<[f64; 3]>,
+    /// Light everything by the unshadowed sun: no shadow rays, nothing stands between any
+    /// surface and the sun. For measuring shading apart from shadows (`make report`'s error
+    /// budget); not a look.
+    #[arg(long)]
+    pub no_shadows: bool,
     /// Segment length in texture cells (smaller: slower, less noise).
     #[arg(long, default_value_t = 1.0, value_parser = step)]
     pub step: f32,

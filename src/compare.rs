@@ -26,7 +26,7 @@ pub enum CompareError {
     #[error("{file}: has no channel {channel} (it has: {present})")]
     MissingChannel {
         file: PathBuf,
-        channel: &'static str,
+        channel: String,
         present: String,
     },
     #[error("{a} is {a_size} but {b} is {b_size}: only images of the same size and window compare")]
@@ -61,21 +61,32 @@ impl Rgba {
     /// Reads the first layer's R, G, B and A, refusing an image whose header claims more pixels
     /// than `limits` allow before any pixel is read.
     pub fn read(path: &Path, limits: &Limits) -> Result<Rgba, CompareError> {
+        Rgba::read_channels(path, CHANNELS, limits)
+    }
+
+    /// [`Rgba::read`] of the four channels `names` (an AOV such as `canopy.A` may stand for
+    /// any of them, several times).
+    pub fn read_channels(
+        path: &Path,
+        names: [&str; 4],
+        limits: &Limits,
+    ) -> Result<Rgba, CompareError> {
         let file = std::fs::File::open(path).map_err(|e| CompareError::Read {
             file: path.to_path_buf(),
             message: e.to_string(),
         })?;
-        Rgba::from_reader(std::io::BufReader::new(file), path, limits)
+        Rgba::from_reader(std::io::BufReader::new(file), path, names, limits)
     }
 
     /// [`Rgba::read`] from the bytes of an EXR file (`path` names it in errors).
     pub fn from_bytes(bytes: &[u8], path: &Path, limits: &Limits) -> Result<Rgba, CompareError> {
-        Rgba::from_reader(std::io::Cursor::new(bytes), path, limits)
+        Rgba::from_reader(std::io::Cursor::new(bytes), path, CHANNELS, limits)
     }
 
     fn from_reader(
         mut reader: impl std::io::Read + std::io::Seek,
         path: &Path,
+        channels: [&str; 4],
         limits: &Limits,
     ) -> Result<Rgba, CompareError> {
         let read_error = |message: String| CompareError::Read {
@@ -119,7 +130,7 @@ impl Rgba {
             .collect();
         let (width, height) = (layer.size.width(), layer.size.height());
         let mut pixels = vec![[0.0f32; 4]; width * height];
-        for (c, channel) in CHANNELS.iter().enumerate() {
+        for (c, channel) in channels.iter().enumerate() {
             let Some(data) = layer
                 .channel_data
                 .list
@@ -128,7 +139,7 @@ impl Rgba {
             else {
                 return Err(CompareError::MissingChannel {
                     file: path.to_path_buf(),
-                    channel,
+                    channel: channel.to_string(),
                     present: names.join(", "),
                 });
             };
@@ -172,6 +183,9 @@ pub struct Comparison {
     pub non_finite: usize,
     pub rgb: Metrics,
     pub alpha: Metrics,
+    /// Per colour channel, the image's mean over the reference's: under 1 darker, over 1
+    /// brighter (bias, where RMSE mixes bias and noise); `None` where the reference sums to 0.
+    pub mean_ratio: [Option<f64>; 3],
 }
 
 impl Comparison {
@@ -184,6 +198,13 @@ impl Comparison {
         s += "\n           rmse   rel. mse   mean |e|     max |e|\n";
         s += &self.rgb.line("rgb");
         s += &self.alpha.line("alpha");
+        let ratio = |r: Option<f64>| r.map_or("-".to_string(), |r| format!("{r:.4}"));
+        s += &format!(
+            "  mean ratio R {}  G {}  B {}\n",
+            ratio(self.mean_ratio[0]),
+            ratio(self.mean_ratio[1]),
+            ratio(self.mean_ratio[2])
+        );
         s
     }
 }
@@ -238,18 +259,20 @@ impl Sums {
     }
 }
 
-/// Which pixels (by index) a mask marks as inside: alpha above 0.5 in an EXR, luminance above
-/// 127 in any other picture. The mask must be `size` (width, height) pixels.
+/// Which pixels (by index) a mask marks as inside: `channel` (alpha, `A`, unless asked) above
+/// 0.5 in an EXR, luminance above 127 in any other picture. The mask must be `size` (width,
+/// height) pixels.
 pub fn read_mask(
     path: &Path,
     size: (usize, usize),
+    channel: &str,
     limits: &Limits,
 ) -> Result<Vec<bool>, CompareError> {
     let is_exr = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     let (width, height, inside) = if is_exr {
-        let m = Rgba::read(path, limits)?;
+        let m = Rgba::read_channels(path, [channel; 4], limits)?;
         let inside = m.pixels.iter().map(|p| p[3] > 0.5).collect();
         (m.width, m.height, inside)
     } else {
@@ -305,6 +328,7 @@ pub fn check_same_window(
 pub fn compare(a: &Rgba, b: &Rgba, inside: impl Fn(usize) -> bool) -> Comparison {
     let (mut rgb, mut alpha) = (Sums::default(), Sums::default());
     let (mut pixels, mut non_finite) = (0, 0);
+    let (mut sum_a, mut sum_b) = ([0.0f64; 3], [0.0f64; 3]);
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         if !inside(i) {
             continue;
@@ -317,6 +341,8 @@ pub fn compare(a: &Rgba, b: &Rgba, inside: impl Fn(usize) -> bool) -> Comparison
         let at = [i % a.width, i / a.width];
         for c in 0..3 {
             rgb.add(p[c], q[c], at);
+            sum_a[c] += f64::from(p[c]);
+            sum_b[c] += f64::from(q[c]);
         }
         alpha.add(p[3], q[3], at);
     }
@@ -325,6 +351,7 @@ pub fn compare(a: &Rgba, b: &Rgba, inside: impl Fn(usize) -> bool) -> Comparison
         non_finite,
         rgb: rgb.metrics(),
         alpha: alpha.metrics(),
+        mean_ratio: std::array::from_fn(|c| (sum_b[c] != 0.0).then(|| sum_a[c] / sum_b[c])),
     }
 }
 
@@ -383,6 +410,11 @@ mod tests {
         assert!((m.alpha.max - 0.5).abs() < 1e-9);
         // An image against itself has no error.
         assert_eq!(compare(&a, &a, |_| true).rgb, Metrics::default());
+        // Mean ratios: R is 0.55 / 0.5 on average, G and B exact; a black reference has none.
+        assert_eq!(c.mean_ratio[1], Some(1.0));
+        assert!((c.mean_ratio[0].unwrap() - 1.1).abs() < 1e-6, "{c:?}");
+        let black = image(4, 2, |_| [0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(compare(&a, &black, |_| true).mean_ratio, [None; 3]);
     }
 
     #[test]

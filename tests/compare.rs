@@ -108,3 +108,70 @@ fn compare_refuses_images_that_do_not_match() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// An EXR mask may name its channel: `canopy.A` of a render marks where trees are, and the
+/// mean ratio there says how much darker or brighter the image is than the reference.
+#[test]
+fn compare_takes_a_mask_from_a_named_channel_and_reports_mean_ratios() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(&d.join("ref.exr"), 8, 4, |_, _| [0.5, 0.5, 0.5, 1.0]);
+    write(&d.join("a.exr"), 8, 4, |x, _| {
+        let v = if x < 4 { 0.45 } else { 0.5 };
+        [v, v, 0.55, 1.0]
+    });
+    let column = |f: &dyn Fn(usize) -> f32| FlatSamples::F32((0..32).map(f).collect());
+    let channels = vec![
+        AnyChannel::new("A", column(&|_| 1.0)),
+        AnyChannel::new("canopy.A", column(&|i| if i % 8 < 4 { 1.0 } else { 0.0 })),
+    ];
+    Image::from_layer(Layer::new(
+        (8, 4),
+        LayerAttributes::default(),
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(channels.into()),
+    ))
+    .write()
+    .to_file(d.join("mask.exr"))
+    .unwrap();
+    let json = |extra: &[&str]| {
+        let mut args = vec![
+            "compare", "a.exr", "ref.exr", "--json", "--mask", "mask.exr",
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args, d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    // Alpha covers everything; canopy.A the left half, where R and G are 10 % darker.
+    assert_eq!(json(&[])["mask"]["pixels"], 32);
+    let j = json(&["--mask-channel", "canopy.A"]);
+    assert_eq!(j["mask"]["pixels"], 16);
+    let ratio = |c: usize| j["mask"]["mean_ratio"][c].as_f64().unwrap();
+    assert!(
+        (ratio(0) - 0.9).abs() < 1e-6 && (ratio(2) - 1.1).abs() < 1e-6,
+        "{j}"
+    );
+    // A channel the mask lacks is named in the error.
+    let o = run(
+        &[
+            "compare",
+            "a.exr",
+            "ref.exr",
+            "--mask",
+            "mask.exr",
+            "--mask-channel",
+            "x.Y",
+        ],
+        d,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("x.Y") && stderr(&o).contains("mask.exr"),
+        "{}",
+        stderr(&o)
+    );
+    // The text names the ratios too.
+    let o = run(&["compare", "a.exr", "ref.exr"], d);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("mean ratio R"));
+}

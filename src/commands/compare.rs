@@ -30,7 +30,7 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     let all = compare(&a, &b, |_| true);
     let masked = match &args.mask {
         Some(path) => {
-            let inside = read_mask(path, (a.width, a.height), limits)?;
+            let inside = read_mask(path, (a.width, a.height), &args.mask_channel, limits)?;
             Some(compare(&a, &b, |i| inside[i]))
         }
         None => None,

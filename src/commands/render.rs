@@ -51,7 +51,8 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         shading: Shading::default(),
         sky: args.sky.map(|s| DVec3::from(s).as_vec3()),
     };
-    let scene = scene.into_scene(camera.eye, lighting);
+    let mut scene = scene.into_scene(camera.eye, lighting);
+    scene.shadows = !args.no_shadows;
 
     let pixels = args.crop.map_or(
         u64::from(args.width) * u64::from(args.height),

@@ -300,21 +300,25 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         // bright as a surface lit head-on).
         let p = ray.dir * ts + sun.direction * cell_here.max(length);
 
-        let lit = roulette(
-            share,
-            march,
-            rng::hash3(key, segment, purpose::SEGMENT_ROULETTE),
-            &mut out.shadow_rays,
-            || {
-                sun_light(
-                    scene,
-                    p,
-                    t * spread,
-                    rng::hash3(key, segment, purpose::SEGMENT_LIGHT),
-                    march,
-                )
-            },
-        );
+        let lit = if !scene.shadows {
+            sun_radiance(scene)
+        } else {
+            roulette(
+                share,
+                march,
+                rng::hash3(key, segment, purpose::SEGMENT_ROULETTE),
+                &mut out.shadow_rays,
+                || {
+                    sun_light(
+                        scene,
+                        p,
+                        t * spread,
+                        rng::hash3(key, segment, purpose::SEGMENT_LIGHT),
+                        march,
+                    )
+                },
+            )
+        };
         let source = shade(scene, albedo, normal, lit, -dir);
         out.rgb += source * share;
         transmittance *= 1.0 - opacity;
@@ -440,7 +444,11 @@ fn light_ground(
     let triangle = &g.mesh.triangles[tri as usize];
     let albedo = g.mesh.base_color(triangle, hit.w).truncate();
     let lift = g.leave(tri, &hit, normal, scene.sun.direction);
-    let lit = if normal.dot(scene.sun.direction) > 0.0 {
+    let lit = if normal.dot(scene.sun.direction) <= 0.0 {
+        0.0
+    } else if !scene.shadows {
+        sun_radiance(scene)
+    } else {
         roulette(
             transmittance,
             l.march,
@@ -456,8 +464,6 @@ fn light_ground(
                 )
             },
         )
-    } else {
-        0.0
     };
     let source = shade_ground(scene, albedo, normal, lit);
     out.rgb += source * transmittance;

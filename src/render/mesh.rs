@@ -139,8 +139,8 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
         return out;
     };
     let lit = if normal.dot(sun) > 0.0 {
-        out.shadow_rays = 1;
-        if sun_hidden(scene, leave, shadow_key) {
+        out.shadow_rays = u32::from(scene.shadows);
+        if scene.shadows && sun_hidden(scene, leave, shadow_key) {
             0.0
         } else {
             sun_radiance(scene)

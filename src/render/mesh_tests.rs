@@ -293,5 +293,14 @@ fn a_leaf_5_cm_behind_an_alpha_masked_leaf_is_in_its_shadow_from_afar() {
             (lit.rgb - lit.albedo).abs().max_element() < 1e-4 && lit.albedo.x > 0.1,
             "at {distance} m: {lit:?}"
         );
+        // Without shadows the back leaf is lit under the front one too.
+        let mut s = s;
+        s.shadows = false;
+        let r = mesh::radiance(
+            &s,
+            (DVec3::new(0.02, 0.3, 0.0) - eye).normalize().as_vec3(),
+            7,
+        );
+        assert_eq!((r.rgb, r.shadow_rays), (lit.rgb, 0), "at {distance} m");
     }
 }

@@ -150,6 +150,9 @@ pub struct Scene {
     pub shading: Shading,
     /// Sky radiance behind everything; `None` leaves the sky transparent.
     pub sky: Option<Vec3>,
+    /// Whether anything shadows the sun. Off, every surface and sample is lit as if nothing
+    /// stood between it and the sun, so shading can be measured apart from shadows.
+    pub shadows: bool,
 }
 
 impl Scene {
@@ -202,6 +205,7 @@ impl Scene {
             sun,
             shading,
             sky,
+            shadows: true,
         }
     }
 

@@ -269,6 +269,12 @@ fn a_ground_quad_under_a_known_slab_gets_the_predicted_transmittance() {
         &March::default(),
     );
     assert!((r.rgb[0] - 0.4).abs() < 1e-3, "{}", r.rgb[0]);
+    // Without shadows the ground below the slab is lit in full, and no shadow ray is cast.
+    let mut scene = scene;
+    scene.shadows = false;
+    let r = radiance(&scene, Vec3::NEG_Y, 0.0, 5, &March::default());
+    assert!((r.rgb[0] - 0.4).abs() < 1e-6, "{}", r.rgb[0]);
+    assert_eq!(r.shadow_rays, 0);
 }
 
 /// A ball of fog: density falling off from the centre, so one sample per cell is noisy, seen
