@@ -10,7 +10,7 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
            $(OUT)/trees/$(t)-projection-z.png $(OUT)/trees/$(t)-projection-y.png \
            $(OUT)/trees/$(t)-slice-y10.png)
 
-.PHONY: demo test bench accuracy report fixtures formats-check clean FORCE
+.PHONY: demo test bench accuracy report budget fixtures formats-check clean FORCE
 .DELETE_ON_ERROR:
 
 FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
@@ -33,6 +33,11 @@ accuracy:
 # cached in report/cache/). About 15 minutes on 2 cores the first time.
 report: $(TEXEL)
 	$(CARGO) run --release --example report
+
+# The texel method's error split into coverage, shading, shadows and noise, alone
+# (report/error_budget.*; part of `make report`).
+budget: $(TEXEL)
+	$(CARGO) run --release --example report -- --budget
 
 # Regenerates the procedural fixtures and the golden .texel; tests check they match.
 fixtures:

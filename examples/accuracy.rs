@@ -1,10 +1,12 @@
 //! `make accuracy`: how well baked textures predict their meshes' silhouettes, for the fixtures
 //! and (where present) the real trees.
 //!
-//! * axis columns: per texture column along x, y and z, exp(-optical depth) against the
-//!   fraction of rays through the column that miss the mesh (traced independently);
-//! * views: 24 random directions, parallel rays marched through the trilinear texture against
-//!   the mesh, per pixel of one cell;
+//! * axis views: parallel rays along x, y and z marched through the trilinear texture (as the
+//!   renderer sees it, directional extinction included) against the mesh, traced
+//!   independently, per pixel of one cell: coverage and its relative error;
+//! * views: the same over 24 random directions;
+//! * with `--levels`, each coarser level's coverage against level 0's, worst axis and mean
+//!   over the views;
 //! * with `--anisotropy`, the same views for per-axis extinction combined by direction, the
 //!   alternative `formats/texel.md` weighs.
 
@@ -12,12 +14,13 @@ use glam::DVec3;
 use texel_forest::bake::{self, BakeSettings};
 use texel_forest::corpus;
 use texel_forest::mesh_tracer::MeshTracer;
-use texel_forest::silhouette::{Frame, axis_columns, over_views, random_directions};
+use texel_forest::silhouette::{Frame, compare, over_views, random_directions};
 use texel_forest::volume::{DensityModel, Level};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let anisotropy = args.iter().any(|a| a == "--anisotropy");
+    let levels = args.iter().any(|a| a == "--levels");
     let occupancy = args.iter().any(|a| a == "--occupancy");
     let res: usize = args
         .iter()
@@ -41,7 +44,7 @@ fn main() {
     );
     println!(
         "{:<26} {:>24} {:>24} {:>28}",
-        "", "axis columns x/y/z", "", "24 random views (trilinear)"
+        "", "axis views x/y/z (trilinear)", "", "24 random views (trilinear)"
     );
     println!(
         "{:<26} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9}",
@@ -58,26 +61,61 @@ fn main() {
         let model = texel_forest::import::load(&path).expect("imports");
         let texel = bake::bake(&model.mesh, &settings).expect("bakes");
         let tracer = MeshTracer::new(&model.mesh);
-        let cols: Vec<_> = (0..3)
-            .map(|a| axis_columns(&tracer, &texel, a, 8))
-            .collect();
         let frame = Frame::of(&texel);
-        let v = over_views(&tracer, frame, &dirs, 3, &|p, _| {
-            texel.extinction(0, p) as f64
-        });
+        let texel = &texel;
+        let at_level =
+            |level: usize| move |p: DVec3, d: DVec3| texel.extinction(level, p, d) as f64;
+        let axes: Vec<_> = [DVec3::X, DVec3::Y, DVec3::Z]
+            .iter()
+            .map(|&d| compare(&tracer, frame, d, 3, &at_level(0)))
+            .collect();
+        let v = over_views(&tracer, frame, &dirs, 3, &at_level(0));
         println!(
             "{:<26} {:>8.4} {:>8.4} {:>8.4} {:>+8.4} {:>+8.4} {:>+8.4} {:>+9.4} {:>9.4} {:>9.4}",
             name,
-            cols[0].coverage_mesh,
-            cols[1].coverage_mesh,
-            cols[2].coverage_mesh,
-            cols[0].coverage_error(),
-            cols[1].coverage_error(),
-            cols[2].coverage_error(),
+            axes[0].coverage_mesh,
+            axes[1].coverage_mesh,
+            axes[2].coverage_mesh,
+            axes[0].coverage_error(),
+            axes[1].coverage_error(),
+            axes[2].coverage_error(),
             v.bias,
             v.abs_bias,
             v.rmse
         );
+        if levels {
+            // Each coarser level's coverage against level 0's, along the axes and the views.
+            let directions: Vec<DVec3> = [DVec3::X, DVec3::Y, DVec3::Z]
+                .into_iter()
+                .chain(dirs.iter().copied())
+                .collect();
+            // Coarse levels reach beyond level 0's box (odd sizes round up): frame them all.
+            let coarsest = texel.levels.last().expect("levels");
+            let all = Frame {
+                hi: texel.origin() + DVec3::from(coarsest.dims.map(|d| d as f64)) * coarsest.cell,
+                ..frame
+            };
+            let coverage = |level: usize| -> Vec<f64> {
+                directions
+                    .iter()
+                    .map(|&d| compare(&tracer, all, d, 1, &at_level(level)).coverage_texture)
+                    .collect()
+            };
+            let base = coverage(0);
+            let line: Vec<String> = (1..texel.levels.len())
+                .map(|l| {
+                    let c = coverage(l);
+                    let rel: Vec<f64> = c.iter().zip(&base).map(|(a, b)| a / b - 1.0).collect();
+                    let axis_worst = rel[..3].iter().fold(0.0f64, |m, r| m.max(r.abs()));
+                    let mean_views = rel[3..].iter().sum::<f64>() / (rel.len() - 3) as f64;
+                    format!("L{l} {axis_worst:.3}/{mean_views:+.3}")
+                })
+                .collect();
+            println!(
+                "  levels vs level 0 (worst axis / mean view): {}",
+                line.join("  ")
+            );
+        }
         if anisotropy {
             let (grid, axes) = bake::axis_extinctions(&model.mesh, &settings).expect("bakes");
             let level = Level::empty(grid.dims, grid.cell);

@@ -1,6 +1,7 @@
-//! Small log-log line plots as PNG-ready pictures, for the reports: axes with decade ticks,
-//! one polyline with markers per series, a legend, and text in a built-in 5 x 7 pixel font
-//! (so no font files are needed on the machine that makes the report).
+//! Small plots as PNG-ready pictures, for the reports: log-log line plots (axes with decade
+//! ticks, one polyline with markers per series, a legend) and grouped bar charts on a linear
+//! axis, with text in a built-in 5 x 7 pixel font (so no font files are needed on the machine
+//! that makes the report).
 
 use image::{Rgb, RgbImage};
 
@@ -326,6 +327,103 @@ impl Plot {
     }
 }
 
+/// A grouped bar chart: for each group (a view, say) one bar per series (a part of an error
+/// budget), heights on a linear axis from 0.
+#[derive(Clone, Debug)]
+pub struct Bars {
+    pub title: String,
+    pub y_label: String,
+    pub groups: Vec<String>,
+    /// Name, colour and one value per group (non-finite or negative values draw no bar).
+    pub series: Vec<(String, [u8; 3], Vec<f64>)>,
+}
+
+impl Bars {
+    pub fn draw(&self, width: u32, height: u32) -> RgbImage {
+        let mut img = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
+        text(&mut img, LEFT, 15, &self.title, BLACK);
+        text(&mut img, 8, TOP - 26, &self.y_label, BLACK);
+        let legend_w = self
+            .series
+            .iter()
+            .map(|s| text_width(&s.0))
+            .max()
+            .unwrap_or(0)
+            + 50;
+        let (x0, x1) = (LEFT as f64, width as f64 - legend_w as f64 - 20.0);
+        let (y0, y1) = (height as f64 - BOTTOM as f64, TOP as f64);
+        let top = self
+            .series
+            .iter()
+            .flat_map(|s| s.2.iter().copied())
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, f64::max);
+        if top <= 0.0 || self.groups.is_empty() {
+            return img;
+        }
+        // A round step (1, 2 or 5 times a power of ten) giving four to ten grid lines.
+        let magnitude = 10f64.powf((top / 5.0).log10().floor());
+        let step = [1.0, 2.0, 5.0, 10.0]
+            .iter()
+            .map(|m| m * magnitude)
+            .find(|st| top / st <= 10.0)
+            .unwrap_or(10.0 * magnitude);
+        let axis_top = (top / step).ceil() * step;
+        let py = |v: f64| y0 + (y1 - y0) * v / axis_top;
+        let mut v = 0.0;
+        while v <= axis_top * (1.0 + 1e-9) {
+            line(&mut img, (x0, py(v)), (x1, py(v)), [225, 225, 225], 1);
+            let l = label(v);
+            text(
+                &mut img,
+                LEFT - 8 - text_width(&l),
+                py(v) as i64 - 7,
+                &l,
+                BLACK,
+            );
+            v += step;
+        }
+        line(&mut img, (x0, y0), (x1, y0), BLACK, 1);
+        line(&mut img, (x0, y0), (x0, y1), BLACK, 1);
+        let group_w = (x1 - x0) / self.groups.len() as f64;
+        let bar_w = group_w * 0.8 / self.series.len().max(1) as f64;
+        for (g, name) in self.groups.iter().enumerate() {
+            let gx = x0 + group_w * g as f64 + group_w * 0.1;
+            for (k, (_, color, values)) in self.series.iter().enumerate() {
+                let Some(&v) = values.get(g).filter(|v| v.is_finite() && **v > 0.0) else {
+                    continue;
+                };
+                let (bx0, bx1) = (gx + bar_w * k as f64, gx + bar_w * (k as f64 + 0.85));
+                for y in (py(v).round() as i64)..(y0 as i64) {
+                    line(&mut img, (bx0, y as f64), (bx1, y as f64), *color, 1);
+                }
+            }
+            let centre = (x0 + group_w * (g as f64 + 0.5)) as i64;
+            text(
+                &mut img,
+                centre - text_width(name) / 2,
+                y0 as i64 + 10,
+                name,
+                BLACK,
+            );
+        }
+        for (k, (name, color, _)) in self.series.iter().enumerate() {
+            let (lx, ly) = (x1 as i64 + 20, TOP + 24 * k as i64);
+            for dy in 0..14 {
+                line(
+                    &mut img,
+                    (lx as f64, (ly + dy) as f64),
+                    (lx as f64 + 30.0, (ly + dy) as f64),
+                    *color,
+                    1,
+                );
+            }
+            text(&mut img, lx + 38, ly, name, BLACK);
+        }
+        img
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -352,5 +450,38 @@ mod tests {
         assert!(red(((x0 + x1) / 2.0) as u32, ((y0 + y1) / 2.0) as u32));
         assert_eq!(label(0.001), "0.001");
         assert_eq!(label(20.0), "20");
+    }
+
+    #[test]
+    fn bars_rise_in_proportion_to_their_values() {
+        let bars = Bars {
+            title: "t".into(),
+            y_label: "rmse".into(),
+            groups: vec!["far".into(), "near".into()],
+            series: vec![
+                ("a".into(), [255, 0, 0], vec![1.0, 2.0]),
+                ("b".into(), [0, 0, 255], vec![f64::NAN, 0.5]),
+            ],
+        };
+        let img = bars.draw(600, 400);
+        let height_of =
+            |x: u32, c: [u8; 3]| (0..400).filter(|&y| img.get_pixel(x, y).0 == c).count();
+        // Groups of (600 - 62 - 20 - 90) / 2 = 214 px; bars 0.8 x 214 / 2 wide, from 10 % in.
+        let (x0, group, bar) = (90.0, 214.0, 85.6);
+        let mid = |g: f64, k: f64| (x0 + group * g + group * 0.1 + bar * (k + 0.4)) as u32;
+        let (a_far, a_near, b_near) = (
+            height_of(mid(0.0, 0.0), [255, 0, 0]),
+            height_of(mid(1.0, 0.0), [255, 0, 0]),
+            height_of(mid(1.0, 1.0), [0, 0, 255]),
+        );
+        assert!(
+            (a_near as f64 / a_far as f64 - 2.0).abs() < 0.02,
+            "{a_far} {a_near}"
+        );
+        assert!(
+            (a_near as f64 / b_near as f64 - 4.0).abs() < 0.05,
+            "{b_near}"
+        );
+        assert_eq!(height_of(mid(0.0, 1.0), [0, 0, 255]), 0);
     }
 }

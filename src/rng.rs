@@ -9,6 +9,8 @@ pub mod purpose {
     // Baking.
     /// Whether an alpha-blended surface stops a scan ray.
     pub const BAKE_BLEND: u64 = 0x626c_656e_6473;
+    /// Whether an alpha-blended surface stops a ray of the directional calibration.
+    pub const CALIBRATION: u64 = 0x0063_616c_6962;
     // Placement.
     /// A band's own stream of darts.
     pub const BAND: u64 = 0x6261_6e64;

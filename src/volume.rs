@@ -30,6 +30,13 @@ impl DensityModel {
     }
 }
 
+/// The directional form of an isotropic level: `q(w) = 1`.
+pub const ISOTROPIC: [f32; 7] = [1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+
+/// The least `q(w)` a directional form is taken to reach (a factor of 1/64): below it, `q` is
+/// clamped, so that no form, however fitted or damaged, makes extinction vanish or negative.
+pub const DIRECTIONAL_FLOOR: f32 = 1.0 / 4096.0;
+
 /// One level of the mip chain. Arrays are indexed `x + nx * (y + ny * z)`; the per-part pairs
 /// are `[wood, foliage]`: foliage follows the season, wood does not.
 #[derive(Clone, Debug, PartialEq)]
@@ -43,6 +50,10 @@ pub struct Level {
     pub gradient: [Vec<[f32; 3]>; 2],
     /// Linear albedo of each part's surfaces; filled in from neighbours where the part is absent.
     pub albedo: [Vec<[f32; 3]>; 2],
+    /// Directional extinction `[S_xx, S_yy, S_zz, S_xy, S_xz, S_yz, c]`: along a unit
+    /// direction `w` extinction is the stored one times `sqrt(q(w))`, `q(w) = w^T S w + c (w_x^4
+    /// + w_y^4 + w_z^4)` (see `bake::calibrate`; [`ISOTROPIC`] in files before texel 1.2).
+    pub directional: [f32; 7],
 }
 
 impl Level {
@@ -54,7 +65,25 @@ impl Level {
             density: [vec![0.0; n], vec![0.0; n]],
             gradient: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
             albedo: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
+            directional: ISOTROPIC,
         }
+    }
+
+    /// The factor extinction takes along direction `d` (model space, any non-zero length):
+    /// `sqrt(max(q(w), DIRECTIONAL_FLOOR))` for `w = d / |d|`; 1 for a zero `d`.
+    #[inline]
+    pub fn directional_factor(&self, d: Vec3) -> f32 {
+        let [xx, yy, zz, xy, xz, yz, c] = self.directional;
+        let Some(w) = d.try_normalize() else {
+            return 1.0;
+        };
+        let w2 = w * w;
+        let q = xx * w2.x
+            + yy * w2.y
+            + zz * w2.z
+            + 2.0 * (xy * w.x * w.y + xz * w.x * w.z + yz * w.y * w.z)
+            + c * (w2.x * w2.x + w2.y * w2.y + w2.z * w2.z);
+        q.max(DIRECTIONAL_FLOOR).sqrt()
     }
 
     pub fn cell_count(&self) -> usize {
@@ -256,11 +285,12 @@ impl Texel {
         DVec3::from(self.info.origin)
     }
 
-    /// Extinction (1/m) of both parts at model-space point `p` on level `level`.
-    pub fn extinction(&self, level: usize, p: DVec3) -> f32 {
+    /// Extinction (1/m) of both parts at model-space point `p` on level `level`, along the
+    /// direction `dir` (model space).
+    pub fn extinction(&self, level: usize, p: DVec3, dir: DVec3) -> f32 {
         let l = &self.levels[level];
         let q = (p - self.origin()) / l.cell;
-        let s = self.info.extinction_scale as f32;
+        let s = self.info.extinction_scale as f32 * l.directional_factor(dir.as_vec3());
         s * (l.interpolate(&l.density[0], q) + l.interpolate(&l.density[1], q))
     }
 
@@ -270,7 +300,9 @@ impl Texel {
         let l = &self.levels[level];
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
         let mut depth = vec![0.0; l.dims[u] * l.dims[v]];
-        let s = self.info.extinction_scale * l.cell;
+        let mut w = Vec3::ZERO;
+        w[axis] = 1.0;
+        let s = self.info.extinction_scale * l.cell * f64::from(l.directional_factor(w));
         for z in 0..l.dims[2] {
             for y in 0..l.dims[1] {
                 for x in 0..l.dims[0] {

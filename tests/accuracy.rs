@@ -5,16 +5,18 @@
 mod common;
 
 use common::*;
+use glam::DVec3;
 use texel_forest::bake::{self, BakeSettings};
 use texel_forest::import;
 use texel_forest::mesh_tracer::MeshTracer;
-use texel_forest::silhouette::{Frame, axis_columns, over_views, random_directions};
+use texel_forest::silhouette::{Frame, axis_columns, compare, over_views, random_directions};
 use texel_forest::volume::{DensityModel, Texel};
 
 struct Measured {
-    /// Relative error of the predicted silhouette coverage along x, y, z (column sums).
+    /// Relative error of the silhouette coverage seen along x, y, z through the trilinear
+    /// texture, directional extinction included (as the renderer sees it).
     axis: [f64; 3],
-    /// Per-column RMSE of coverage, worst axis.
+    /// Per-column RMSE of coverage (column sums against rays through each column), worst axis.
     column_rmse: f64,
     /// Mean relative coverage error over random views through the trilinear texture.
     view_bias: f64,
@@ -22,14 +24,16 @@ struct Measured {
 
 fn measure(texel: &Texel, mesh: &import::Mesh, views: usize) -> Measured {
     let tracer = MeshTracer::new(mesh);
-    let cols: Vec<_> = (0..3).map(|a| axis_columns(&tracer, texel, a, 8)).collect();
+    let frame = Frame::of(texel);
+    let extinction = |p, d| texel.extinction(0, p, d) as f64;
+    let axis = [DVec3::X, DVec3::Y, DVec3::Z]
+        .map(|d| compare(&tracer, frame, d, 3, &extinction).coverage_error());
+    let columns = (0..3).map(|a| axis_columns(&tracer, texel, a, 8).pixel_rmse);
     let dirs = random_directions(views, 1);
-    let extinction = |p, _| texel.extinction(0, p) as f64;
-    let view_bias = over_views(&tracer, Frame::of(texel), &dirs, 2, &extinction).bias;
     Measured {
-        axis: [0, 1, 2].map(|a| cols[a].coverage_error()),
-        column_rmse: cols.iter().map(|c| c.pixel_rmse).fold(0.0, f64::max),
-        view_bias,
+        axis,
+        column_rmse: columns.fold(0.0, f64::max),
+        view_bias: over_views(&tracer, frame, &dirs, 2, &extinction).bias,
     }
 }
 
@@ -40,53 +44,107 @@ fn report(name: &str, m: &Measured) {
     );
 }
 
-/// The test: for axis-aligned views, each texture column's optical depth predicts the
-/// fraction of rays through it that miss the mesh (traced independently of the bake).
+/// The coverage targets: with each level's directional form fitted to the mesh, every axis
+/// view and the mean over random views are within 4 % of the mesh's coverage (before the forms,
+/// the broadleaf's axes were off by -18 % to +12 % and random views by +6 % to +11 %).
+fn assert_coverage(name: &str, m: &Measured, axis_tolerance: f64) {
+    assert!(
+        m.axis.iter().all(|e| e.abs() < axis_tolerance),
+        "{name}: axis views {:?}",
+        m.axis
+    );
+    assert!(
+        m.view_bias.abs() < 0.04,
+        "{name}: view bias {}",
+        m.view_bias
+    );
+    assert!(
+        m.column_rmse < 0.25,
+        "{name}: column rmse {}",
+        m.column_rmse
+    );
+}
+
 #[test]
-fn axis_optical_depth_predicts_the_mesh_miss_fraction_for_the_fixtures() {
+fn the_texture_casts_the_mesh_silhouette_along_the_axes_and_random_views_for_the_fixtures() {
     for tree in FIXTURE_TREES {
         let model = import::load(&fixture(tree)).unwrap();
         let texel = bake::bake(&model.mesh, &BakeSettings::default()).unwrap();
-        let m = measure(&texel, &model.mesh, 6);
+        let m = measure(&texel, &model.mesh, 12);
         report(tree, &m);
-        // Measured (32 cells, fine 256): conifer within 1.1% on every axis; the broadleaf's
-        // flat-lying leaves and the bare tree's thin branches are anisotropic, and an
-        // isotropic texture splits the difference between views (up to 18%).
-        let mean: f64 = m.axis.iter().sum::<f64>() / 3.0;
-        assert!(
-            m.axis.iter().all(|e| e.abs() < 0.25),
-            "{tree}: {:?}",
-            m.axis
-        );
-        assert!(mean.abs() < 0.08, "{tree}: mean axis error {mean}");
-        assert!(
-            m.column_rmse < 0.15,
-            "{tree}: column rmse {}",
-            m.column_rmse
-        );
-        assert!(
-            m.view_bias.abs() < 0.16,
-            "{tree}: view bias {}",
-            m.view_bias
-        );
+        // Measured (32 cells, fine 256): axes within 2.6 %, views within 1.4 %, but the bare
+        // tree's thin branches seen along z (+5.5 % of a coverage of 0.07: a few rays).
+        let tolerance = if tree.contains("bare") { 0.07 } else { 0.04 };
+        assert_coverage(tree, &m, tolerance);
     }
 }
 
 #[test]
-fn axis_optical_depth_predicts_the_mesh_miss_fraction_for_the_real_trees() {
+fn the_texture_casts_the_mesh_silhouette_along_the_axes_and_random_views_for_the_real_trees() {
     let Some(trees) = realdata_trees() else {
         return;
     };
     for path in trees {
         let model = import::load(&path).unwrap();
         let texel = bake::bake(&model.mesh, &BakeSettings::default()).unwrap();
-        let m = measure(&texel, &model.mesh, 6);
+        let m = measure(&texel, &model.mesh, 12);
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
         report(&name, &m);
-        // Low-poly solid blobs: the isotropic fit holds the axis views within 15%.
-        assert!(m.axis.iter().all(|e| e.abs() < 0.2), "{name}: {:?}", m.axis);
-        assert!(m.view_bias.abs() < 0.2, "{name}: view bias {}", m.view_bias);
+        assert_coverage(&name, &m, 0.04);
     }
+}
+
+/// Every mip level blocks what level 0 blocks, along the axes and over random views: the
+/// whole tree's coverage no longer grows with level (it grew by up to 88 % at the coarsest
+/// before each level's form was fitted). Measured over the coarsest level's box, which coarse
+/// levels fill out to: worst 1.6 % for these fixtures on the axes, 1.9 % over the views.
+#[test]
+fn every_mip_level_keeps_the_whole_trees_coverage() {
+    for tree in FIXTURE_TREES {
+        let model = import::load(&fixture(tree)).unwrap();
+        let texel = bake::bake(&model.mesh, &BakeSettings::default()).unwrap();
+        let tracer = MeshTracer::new(&model.mesh);
+        let coarsest = texel.levels.last().unwrap();
+        let frame = Frame {
+            hi: texel.origin() + DVec3::from(coarsest.dims.map(|d| d as f64)) * coarsest.cell,
+            ..Frame::of(&texel)
+        };
+        let dirs: Vec<DVec3> = [DVec3::X, DVec3::Y, DVec3::Z]
+            .into_iter()
+            .chain(random_directions(8, 3))
+            .collect();
+        let coverage = |level: usize| -> Vec<f64> {
+            let extinction = |p, d| texel.extinction(level, p, d) as f64;
+            dirs.iter()
+                .map(|&d| compare(&tracer, frame, d, 1, &extinction).coverage_texture)
+                .collect()
+        };
+        let base = coverage(0);
+        for level in 1..texel.levels.len() {
+            let c = coverage(level);
+            let rel: Vec<f64> = c.iter().zip(&base).map(|(a, b)| a / b - 1.0).collect();
+            let views = rel[3..].iter().sum::<f64>() / (rel.len() - 3) as f64;
+            println!(
+                "{tree} level {level}: axes {:+.3?}, views {views:+.3}",
+                &rel[..3]
+            );
+            assert!(
+                rel[..3].iter().all(|r| r.abs() < 0.035),
+                "{tree} level {level}: axes {:?}",
+                &rel[..3]
+            );
+            assert!(views.abs() < 0.035, "{tree} level {level}: views {views}");
+        }
+    }
+}
+
+/// Level 0's column optical depths along `axis` without its directional factor: what the
+/// scan measured.
+fn isotropic_column_depths(t: &Texel, axis: usize) -> Vec<f64> {
+    let mut w = glam::Vec3::ZERO;
+    w[axis] = 1.0;
+    let k = f64::from(t.levels[0].directional_factor(w));
+    t.column_depths(0, axis).iter().map(|d| d / k).collect()
 }
 
 #[test]
@@ -98,9 +156,10 @@ fn occupancy_gamma_is_fitted_to_the_mean_silhouette() {
     };
     let texel = bake::bake(&model.mesh, &settings).unwrap();
     assert!(texel.info.extinction_scale > 0.0);
+    // gamma is fitted to the isotropic columns, before the directional forms.
     let predicted: f64 = (0..3)
         .map(|a| {
-            let d = texel.column_depths(0, a);
+            let d = isotropic_column_depths(&texel, a);
             d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len() as f64
         })
         .sum::<f64>()
@@ -194,8 +253,10 @@ fn an_axis_aligned_box_bakes_to_an_opaque_block() {
     let l = &t.levels[0];
     assert_eq!(l.dims, [8, 8, 8]);
     assert!((l.cell - 0.5).abs() < 1e-9);
-    // Looking down y, the box covers columns x, z in 2..6.
-    let depth = t.column_depths(0, 1);
+    // Looking down y, the box covers columns x, z in 2..6 (the scan's own depths, before the
+    // directional form, which thins the interior so the widened trilinear edges do not
+    // overshoot the box's silhouette).
+    let depth = isotropic_column_depths(&t, 1);
     for z in 0..8 {
         for x in 0..8 {
             let d = depth[z + 8 * x]; // columns along y are indexed z + nz * x
@@ -206,7 +267,7 @@ fn an_axis_aligned_box_bakes_to_an_opaque_block() {
         }
     }
     // Along x at mid height, z in 2..6: opaque through the box.
-    let depth_x = t.column_depths(0, 0);
+    let depth_x = isotropic_column_depths(&t, 0);
     for z in 2..6 {
         assert!(depth_x[4 + 8 * z] > 4.0, "{}", depth_x[4 + 8 * z]);
     }

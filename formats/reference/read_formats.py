@@ -11,7 +11,7 @@ class Bad(Exception):
     pass
 
 MAGIC = {b"\x89TEXEL\r\n": "texel", b"\x89TXINST\n": "instances"}
-MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 1, "instances": 0}
+MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 2, "instances": 0}
 CELL_LIMIT, TREE_LIMIT = 2**25, 2**24           # the reader's allocation limits (texel's defaults)
 
 def f32(x):  # round a Python float to binary32
@@ -130,10 +130,12 @@ def read_texel_header(c, minor, R):
                         "requested_gamma": c.option(c.f64)},
          "levels": c.vec(lambda: {"dims": list(c.un("3I")), "cell": c.f64()}),
          "channels": c.vec(lambda: {"name": c.string(), "components": c.u8(), "encoding": c.enum([F32, U16]), "unit": c.string()}),
-         "wood_pattern": None, "materials": []}
+         "wood_pattern": None, "materials": [], "directional": None}
     if minor >= 1:
         h["wood_pattern"] = c.option(c.string)
         h["materials"] = c.vec(lambda: {"name": c.string(), "reason": c.enum(REASONS), "cut": c.f32(), "triangles": c.u64()})
+    if minor >= 2:
+        h["directional"] = c.vec(lambda: list(c.un("7f")))
     if not all(map(math.isfinite, h["model_min"] + h["model_max"] + h["origin"])): raise Bad("1: non-finite model_min, model_max or origin")
     g = h["extinction_scale"]
     if not (math.isfinite(g) and g > 0): raise Bad(f"2: extinction_scale {g} is not positive and finite")
@@ -158,6 +160,12 @@ def read_texel_header(c, minor, R):
     if M and sum(m["triangles"] for m in M if m["reason"] in REASONS[1:3]) != h["foliage_triangles"]:
         raise Bad("9: foliage material triangles do not add up to foliage_triangles")
     if any(not 0 <= m["cut"] <= 1 for m in M): raise Bad("9: a material cut outside [0, 1]")
+    D = h["directional"]
+    if D is not None:
+        if len(D) != len(L): raise Bad(f"9b: {len(D)} directional forms for {len(L)} levels")
+        if any(not (math.isfinite(v) and abs(v) <= 4096) for form in D for v in form): raise Bad("9b: a directional form entry out of range")
+    else:
+        h["directional"] = [[1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0] for _ in L]
     cells = sum(math.prod(l["dims"]) for l in L)
     per_cell = sum(k["components"] * (4 if k["encoding"] == F32 else 2) for k in ch)
     if cells * per_cell != R: raise Bad(f"10: header implies a payload of {cells * per_cell} bytes, R = {R}")
@@ -184,6 +192,12 @@ def read_texel_payload(h, payload):
             if not all(map(math.isfinite, chans[name])): raise Bad(f"12: level {n}: a non-finite {name}")
         h["data"].append(chans)
 
+def directional_factor(form, w):  # k_n(w) of formats/texel.md, for any non-zero w
+    n = math.sqrt(sum(v * v for v in w)); x, y, z = (v / n for v in w)
+    xx, yy, zz, xy, xz, yz, c = form
+    q = xx * x * x + yy * y * y + zz * z * z + 2 * (xy * x * y + xz * x * z + yz * y * z) + c * (x ** 4 + y ** 4 + z ** 4)
+    return math.sqrt(max(q, 1 / 4096))
+
 def cell_values(h, level, x, y, z):
     nx, ny, _ = h["levels"][level]["dims"]
     i, ch = x + nx * (y + ny * z), h["data"][level]
@@ -198,6 +212,8 @@ def texel_summary(h):
     ok = hashlib.sha256(b"".join(s["sha256"] for s in h["sources"])).digest() == h["inputs_sha256"]
     print(f"  inputs_sha256 {h['inputs_sha256'].hex()[:16]}... ({'matches' if ok else 'DOES NOT match'} the sources' digests; not a listed check)")
     for m in h["materials"]: print(f"  material {m['name']!r}: {m['reason']}, cut {m['cut']}, {m['triangles']} triangles")
+    for n, form in enumerate(h["directional"]):
+        print(f"  level {n} directional form {[short32(v) for v in form]}: k along x, y, z {[round(directional_factor(form, w), 4) for w in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]}")
     print("  channels: " + ", ".join(f"{k['name']}[{k['components']} {k['encoding']} {k['unit']}]" for k in h["channels"]))
     for n, (l, ch) in enumerate(zip(h["levels"], h["data"])):
         print(f"  level {n}: {'x'.join(map(str, l['dims']))} of {l['cell']!r} m; sum density_wood {math.fsum(ch['density_wood']):.10g}, density_foliage {math.fsum(ch['density_foliage']):.10g}")
@@ -279,8 +295,8 @@ def check_golden(h):
         if got != want: bad.append(f"{what}: decoded {got!r}, spec says {want!r}")
     name = os.path.basename(h["path"])
     if name == "conifer-8.texel":
-        eq("size", h["size"], 5745); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("e0b3994a", "e24fb588"))
-        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 1), 706, 10780, 5003))
+        eq("size", h["size"], 5865); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("3109ca23", "22dc55e6"))
+        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 2), 826, 10780, 5003))
         eq("generator", h["generator"], "texel-forest 0.1.0")
         eq("density_model, extinction_scale", (h["density_model"], h["extinction_scale"]), ("Transmittance", 1.0))
         eq("triangles, foliage_triangles", (h["triangles"], h["foliage_triangles"]), (9634, 4698))
@@ -296,6 +312,10 @@ def check_golden(h):
         eq("cell (2,4,2) densities (binary32)", v["density_wood"] + v["density_foliage"], [f32(0.068693906), f32(0.41991684)])
         eq("cell (2,4,2) gradient_foliage (binary32)", v["gradient_foliage"], [f32(0.01636479), f32(-0.09628876), f32(-0.0036591163)])
         eq("cell (2,4,2) albedo_foliage (n/65535 as binary32)", [f32(a) for a in v["albedo_foliage"]], [f32(0.018005647), f32(0.050003815), f32(0.02200351)])
+        D = h["directional"]
+        eq("directional, level 0 (binary32)", D[0], [f32(x) for x in (0.8983114, 0.6146763, 0.96688735, 0.07323644, 0.037996933, -0.06381932, -0.20966367)])
+        eq("directional, level 3 (binary32)", D[3], [f32(x) for x in (0.9592197, 0.4470953, 1.027047, 0.035669524, 0.043990564, -0.031866185, -0.14811616)])
+        eq("k_0 along y and along the body diagonal (6 decimals)", [round(directional_factor(D[0], w), 6) for w in ((0, 1, 0), (1, 1, 1))], [0.636406, 0.887889])
     elif name == "forest-12.instances":
         eq("size", h["size"], 1120); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("dcb70327", "b8048eac"))
         eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 0), 910, 228, 174))

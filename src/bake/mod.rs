@@ -4,6 +4,7 @@
 //! or closed), scan along the three axes, turn what the rays saw into density and albedo per
 //! texture cell, take Sobel gradients, and build the mip chain.
 
+mod calibrate;
 mod classify;
 mod filter;
 mod grid;
@@ -157,7 +158,11 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     for part in 0..2 {
         level.gradient[part] = sobel::gradient(&level.density[part], grid.dims, grid.cell);
     }
-    let levels = mip_chain(level, extinction_scale);
+    let mut levels = mip_chain(level, extinction_scale);
+    let forms = calibrate::directional_forms(mesh, &levels, grid.origin, extinction_scale);
+    for (level, s) in levels.iter_mut().zip(forms) {
+        level.directional = s;
+    }
 
     let (lo, hi) = mesh.bounds().expect("fit_grid checked for triangles");
     Ok(Texel {

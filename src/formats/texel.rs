@@ -16,7 +16,7 @@ use crate::volume::{
 pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";
 pub const MAJOR: u16 = 1;
 /// Minor version 1 appends the wood pattern and the material table to the header.
-pub const MINOR: u16 = 1;
+pub const MINOR: u16 = 2;
 
 /// Limits a reader enforces before it allocates anything a header asks for.
 const MAX_LEVELS: usize = 16;
@@ -89,6 +89,17 @@ pub(crate) struct HeaderV1_1 {
     pub(crate) wood_pattern: Option<String>,
     pub(crate) materials: Vec<MaterialRecord>,
 }
+
+/// What minor version 2 appends to the header.
+#[derive(Clone, Debug, PartialEq, Encode, Decode, Default)]
+pub(crate) struct HeaderV1_2 {
+    /// Per level, finest first: the directional extinction form, `[S_xx, S_yy, S_zz, S_xy,
+    /// S_xz, S_yz, c]`.
+    pub(crate) directional: Vec<[f32; 7]>,
+}
+
+/// Largest magnitude of a directional form's entry (64^2: a factor of 64 along an axis).
+const DIRECTIONAL_MAX: f32 = 4096.0;
 
 #[derive(Clone, Debug, PartialEq, Encode, Decode)]
 pub(crate) struct MaterialRecord {
@@ -180,7 +191,7 @@ fn unorm16(v: f32) -> [u8; 2] {
 pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
     let unwritable = |e: TexelError| TexelError::Unwritable(e.to_string());
     let parts = parts(texel);
-    validate(&parts.header, &parts.extension).map_err(unwritable)?;
+    validate(&parts.header, &parts.extension, Some(&parts.extension2)).map_err(unwritable)?;
     for level in &texel.levels {
         check_values(level).map_err(unwritable)?;
     }
@@ -191,6 +202,7 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
 pub(crate) struct Parts {
     pub(crate) header: Header,
     pub(crate) extension: HeaderV1_1,
+    pub(crate) extension2: HeaderV1_2,
     pub(crate) payload: Vec<u8>,
 }
 
@@ -237,6 +249,9 @@ fn parts(texel: &Texel) -> Parts {
             })
             .collect(),
     };
+    let extension2 = HeaderV1_2 {
+        directional: texel.levels.iter().map(|l| l.directional).collect(),
+    };
     let mut payload = Vec::new();
     for level in &texel.levels {
         for part in 0..2 {
@@ -262,6 +277,7 @@ fn parts(texel: &Texel) -> Parts {
     Parts {
         header,
         extension,
+        extension2,
         payload,
     }
 }
@@ -271,6 +287,7 @@ fn assemble(parts: &Parts) -> Result<Vec<u8>, ContainerError> {
         |e: bincode::error::EncodeError| ContainerError::TooLarge(format!("header: {e}"));
     let mut header = bincode::encode_to_vec(&parts.header, header_config()).map_err(too_large)?;
     header.extend(bincode::encode_to_vec(&parts.extension, header_config()).map_err(too_large)?);
+    header.extend(bincode::encode_to_vec(&parts.extension2, header_config()).map_err(too_large)?);
     container::write(MAGIC, MAJOR, MINOR, &header, &parts.payload)
 }
 
@@ -286,7 +303,7 @@ pub(crate) fn forge(texel: &Texel, edit: impl FnOnce(&mut Parts)) -> Vec<u8> {
 /// Decodes the header of a file of minor version `minor`: the v1.0 fields, then those of
 /// every later minor version this reader knows. Bytes after those are refused, unless the file
 /// is of a newer minor version, whose appended fields this reader skips.
-fn decode_header(bytes: &[u8], minor: u16) -> Result<(Header, HeaderV1_1), TexelError> {
+fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
     let decode_error =
         |e: bincode::error::DecodeError| TexelError::Header(container::decode_error(&e));
     let (header, used): (Header, usize) =
@@ -300,22 +317,46 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<(Header, HeaderV1_1), Texel
     } else {
         HeaderV1_1::default()
     };
+    let extension2 = if minor >= 2 {
+        let (extension2, used): (HeaderV1_2, usize) =
+            bincode::decode_from_slice(rest, header_config()).map_err(decode_error)?;
+        rest = &rest[used..];
+        Some(extension2)
+    } else {
+        None
+    };
     if !rest.is_empty() && minor <= MINOR {
         return Err(TexelError::Header(format!(
             "{} bytes after the header",
             rest.len()
         )));
     }
-    validate(&header, &extension)?;
-    Ok((header, extension))
+    validate(&header, &extension, extension2.as_ref())?;
+    // Files before 1.2 are isotropic: every factor 1.
+    let directional = extension2.map_or_else(
+        || vec![crate::volume::ISOTROPIC; header.levels.len()],
+        |e| e.directional,
+    );
+    Ok(Decoded {
+        header,
+        extension,
+        directional,
+    })
+}
+
+/// A decoded, checked header: the fields of every minor version this reader knows.
+struct Decoded {
+    header: Header,
+    extension: HeaderV1_1,
+    directional: Vec<[f32; 7]>,
 }
 
 /// The header of `.texel` bytes (checked, payload not decompressed): for tools that need a
 /// texture's bounds but not its voxels.
 pub fn read_info(bytes: &[u8]) -> Result<TexelInfo, TexelError> {
     let opened = container::open(bytes, MAGIC, "texel", MAJOR)?;
-    let (header, extension) = decode_header(opened.header, opened.minor)?;
-    Ok(info_of(header, extension))
+    let d = decode_header(opened.header, opened.minor)?;
+    Ok(info_of(d.header, d.extension))
 }
 
 fn info_of(header: Header, extension: HeaderV1_1) -> TexelInfo {
@@ -364,7 +405,11 @@ pub fn decode(bytes: &[u8]) -> Result<Texel, TexelError> {
 /// Decodes `.texel` bytes, validating every size before use.
 pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
     let opened = container::open(bytes, MAGIC, "texel", MAJOR)?;
-    let (header, extension) = decode_header(opened.header, opened.minor)?;
+    let Decoded {
+        header,
+        extension,
+        directional,
+    } = decode_header(opened.header, opened.minor)?;
     let bad = |m: String| TexelError::Header(m);
 
     // Everything the payload must hold follows from the header: check it before inflating.
@@ -405,7 +450,7 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
 
     let mut levels = Vec::with_capacity(header.levels.len());
     let mut at = 0usize;
-    for lh in &header.levels {
+    for (lh, &directional) in header.levels.iter().zip(&directional) {
         let dims = lh.dims.map(|d| d as usize);
         let n: usize = dims.iter().product();
         let mut offsets = Vec::with_capacity(header.channels.len());
@@ -438,6 +483,7 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
             density: [f32s(bytes_of(0)), f32s(bytes_of(1))],
             gradient: [vec3(f32s(bytes_of(2))), vec3(f32s(bytes_of(3)))],
             albedo: [vec3(unorm(bytes_of(4))), vec3(unorm(bytes_of(5)))],
+            directional,
         };
         check_values(&level)?;
         levels.push(level);
@@ -473,7 +519,11 @@ fn check_values(level: &Level) -> Result<(), TexelError> {
     Ok(())
 }
 
-fn validate(h: &Header, extension: &HeaderV1_1) -> Result<(), TexelError> {
+fn validate(
+    h: &Header,
+    extension: &HeaderV1_1,
+    extension2: Option<&HeaderV1_2>,
+) -> Result<(), TexelError> {
     let bad = |m: String| Err(TexelError::Header(m));
     let finite3 = |v: &[f64; 3]| v.iter().all(|c| c.is_finite());
     if !(finite3(&h.model_min) && finite3(&h.model_max) && finite3(&h.origin)) {
@@ -568,6 +618,25 @@ fn validate(h: &Header, extension: &HeaderV1_1) -> Result<(), TexelError> {
                 "material {:?} has a cut share of {} (not within 0 to 1)",
                 r.name, r.cut
             ));
+        }
+    }
+    if let Some(e) = extension2 {
+        if e.directional.len() != h.levels.len() {
+            return bad(format!(
+                "{} directional forms for {} levels",
+                e.directional.len(),
+                h.levels.len()
+            ));
+        }
+        for (i, s) in e.directional.iter().enumerate() {
+            if !s
+                .iter()
+                .all(|v| v.is_finite() && v.abs() <= DIRECTIONAL_MAX)
+            {
+                return bad(format!(
+                    "level {i}'s directional form {s:?} has an entry that is not a number within -4096 to 4096"
+                ));
+            }
         }
     }
     Ok(())
@@ -763,10 +832,11 @@ pub(crate) mod tests {
         let mut t = sample_texel(4);
         let bytes = encode(&t).unwrap();
         let p = container::preamble(&bytes).unwrap();
-        // Drop the v1.1 fields: wood pattern `Some("bark")` (1 + 8 + 4 bytes) and the
-        // material table, which end the header.
+        // Drop the v1.1 fields, wood pattern `Some("bark")` (1 + 8 + 4 bytes) and the
+        // material table, and the v1.2 forms (a length and 7 f32 per level), which end the
+        // header.
         let table = 8 + (8 + 4 + 4 + 4 + 8) + (8 + 9 + 4 + 4 + 8);
-        let cut = 13 + table;
+        let cut = 13 + table + directional_bytes(&t);
         let h = container::PREAMBLE + p.header_len as usize;
         let mut b = bytes[..h - cut].to_vec();
         b[10..12].copy_from_slice(&0u16.to_le_bytes());
@@ -775,6 +845,36 @@ pub(crate) mod tests {
         let back = decode(&recrc(b)).unwrap();
         t.info.materials.clear();
         t.info.parameters.wood_pattern = None;
-        assert_eq!(back, t);
+        assert_eq!(back, isotropic(t));
+    }
+
+    /// Bytes of the v1.2 header field for `t`'s levels.
+    fn directional_bytes(t: &Texel) -> usize {
+        8 + 7 * 4 * t.levels.len()
+    }
+
+    fn isotropic(mut t: Texel) -> Texel {
+        for l in &mut t.levels {
+            l.directional = crate::volume::ISOTROPIC;
+        }
+        t
+    }
+
+    /// A 1.1 file (no directional forms) reads as isotropic: it renders as it always did.
+    #[test]
+    fn a_v1_1_file_reads_as_isotropic() {
+        let mut t = sample_texel(6);
+        t.levels[0].directional = [0.5, 2.0, 1.0, 0.1, 0.0, -0.1, 0.2];
+        let bytes = encode(&t).unwrap();
+        assert_eq!(decode(&bytes).unwrap(), t);
+        let p = container::preamble(&bytes).unwrap();
+        let cut = directional_bytes(&t);
+        let h = container::PREAMBLE + p.header_len as usize;
+        let mut b = bytes[..h - cut].to_vec();
+        b[10..12].copy_from_slice(&1u16.to_le_bytes());
+        b[12..16].copy_from_slice(&(p.header_len - cut as u32).to_le_bytes());
+        b.extend_from_slice(&bytes[h..]);
+        let back = decode(&recrc(b)).unwrap();
+        assert_eq!(back, isotropic(t));
     }
 }

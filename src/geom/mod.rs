@@ -25,3 +25,14 @@ pub struct Ray {
 pub fn box_corners<T: Copy>(lo: [T; 3], hi: [T; 3]) -> [[T; 3]; 8] {
     std::array::from_fn(|k| std::array::from_fn(|a| if k >> a & 1 == 1 { hi[a] } else { lo[a] }))
 }
+
+/// `n` unit directions spread evenly over the sphere (a Fibonacci lattice), the same for every
+/// caller.
+pub fn sphere_lattice(n: usize) -> impl Iterator<Item = Vec3> {
+    (0..n).map(move |i| {
+        let y = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
+        let r = (1.0 - y * y).max(0.0).sqrt();
+        let phi = i as f32 * 2.399_963; // the golden angle, radians
+        Vec3::new(r * phi.cos(), y, r * phi.sin())
+    })
+}

@@ -123,7 +123,10 @@ pub fn projection(texel: &Texel, level: usize, axis: usize) -> RgbImage {
     light[side] -= 0.3;
     let len = light.iter().map(|c| c * c).sum::<f32>().sqrt();
     let light = light.map(|c| c / len);
-    let scale = texel.info.extinction_scale * l.cell;
+    // Seen along `axis`, the level blocks light with that axis's directional factor.
+    let mut along = glam::Vec3::ZERO;
+    along[axis] = 1.0;
+    let scale = texel.info.extinction_scale * l.cell * f64::from(l.directional_factor(along));
     let mut img = RgbImage::new((w * s) as u32, (h * s) as u32);
     for row in 0..h {
         for col in 0..w {

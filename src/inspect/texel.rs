@@ -7,11 +7,13 @@ use serde::Serialize;
 use super::{FileFacts, printable};
 use crate::hex::hex;
 use crate::provenance::SourceFile;
+use glam::Vec3;
+
 use crate::volume::{BakeParameters, DensityModel, MaterialPart, Texel};
 
 #[derive(Serialize, Debug)]
 pub struct Summary {
-    /// Format name and version, e.g. `texel 1.1`.
+    /// Format name and version, e.g. `texel 1.2`.
     pub format: String,
     pub generator: String,
     pub file_bytes: u64,
@@ -49,6 +51,11 @@ pub struct Summary {
 pub struct LevelSummary {
     pub dims: [usize; 3],
     pub cell: f64,
+    /// The level's directional extinction form `[S_xx, S_yy, S_zz, S_xy, S_xz, S_yz, c]`.
+    pub directional: [f32; 7],
+    /// Its factor along x, y and z, and the least and greatest over the sphere (sampled).
+    pub factor_axes: [f32; 3],
+    pub factor_range: [f32; 2],
 }
 
 #[derive(Serialize, Debug)]
@@ -165,9 +172,20 @@ pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
         levels: texel
             .levels
             .iter()
-            .map(|l| LevelSummary {
-                dims: l.dims,
-                cell: l.cell,
+            .map(|l| {
+                let factors: Vec<f32> = crate::geom::sphere_lattice(500)
+                    .map(|w| l.directional_factor(w))
+                    .collect();
+                LevelSummary {
+                    dims: l.dims,
+                    cell: l.cell,
+                    directional: l.directional,
+                    factor_axes: [Vec3::X, Vec3::Y, Vec3::Z].map(|w| l.directional_factor(w)),
+                    factor_range: [
+                        factors.iter().copied().fold(f32::INFINITY, f32::min),
+                        factors.iter().copied().fold(0.0, f32::max),
+                    ],
+                }
             })
             .collect(),
         channels,
@@ -222,6 +240,20 @@ fn write_grid(o: &mut String, s: &Summary) {
         .map(|l| format!("{}x{}x{}", l.dims[0], l.dims[1], l.dims[2]))
         .collect();
     let _ = writeln!(o, "levels        {}: {}", s.levels.len(), chain.join(" "));
+    let factors: Vec<String> = s
+        .levels
+        .iter()
+        .map(|l| {
+            let [x, y, z] = l.factor_axes;
+            let [lo, hi] = l.factor_range;
+            format!("{x:.2}/{y:.2}/{z:.2} ({lo:.2}..{hi:.2})")
+        })
+        .collect();
+    let _ = writeln!(
+        o,
+        "directional   extinction factor along x/y/z (range), per level: {}",
+        factors.join("  ")
+    );
     let f = |v: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
     let _ = writeln!(
         o,

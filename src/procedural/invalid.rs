@@ -220,6 +220,7 @@ fn texel_files(files: &mut Vec<InvalidFile>) {
     texel_level_chain_files(&base, &mut add);
     texel_channel_files(&base, &mut add);
     texel_material_files(&base, &mut add);
+    texel_directional_files(&base, &mut add);
     texel_payload_layout_files(&base, &mut add);
     texel_level_value_files(&base, &mut add);
 }
@@ -340,6 +341,28 @@ fn texel_material_files(base: &Texel, add: &mut Add) {
         "material-cut-out-of-range",
         forge(&|p| p.extension.materials[1].cut = 1.5),
         "cut share of 1.5",
+    );
+}
+
+/// The directional forms (1.2): one per level, every entry a number within +-4096.
+fn texel_directional_files(base: &Texel, add: &mut Add) {
+    let forge = |edit: &dyn Fn(&mut texel::Parts)| texel::forge(base, edit);
+    add(
+        "directional-count",
+        forge(&|p| {
+            p.extension2.directional.pop();
+        }),
+        "directional forms for",
+    );
+    add(
+        "directional-nan",
+        forge(&|p| p.extension2.directional[1][6] = f32::NAN),
+        "directional form",
+    );
+    add(
+        "directional-huge",
+        forge(&|p| p.extension2.directional[0][3] = 5000.0),
+        "within -4096 to 4096",
     );
 }
 

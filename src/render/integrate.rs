@@ -91,13 +91,17 @@ impl Active {
         let level = (wanted.max(0.0) as usize).min(texel.levels.len() - 1);
         let cell = texel.levels[level].cell as f32;
         let origin = texel.origin().as_vec3();
+        let dir = inst.dir_to_model(ray.dir);
+        // Extinction depends on direction only through the level's factors, constant along
+        // a straight ray: one multiplier per instance the ray meets.
+        let directional = texel.levels[level].directional_factor(dir);
         Active {
             instance: i,
             exit,
             level,
             c0: (inst.to_model(ray.origin) - origin) / cell,
-            dc: inst.dir_to_model(ray.dir) / cell,
-            sigma_scale: texel.info.extinction_scale as f32 / inst.scale,
+            dc: dir / cell,
+            sigma_scale: texel.info.extinction_scale as f32 * directional / inst.scale,
             step: cell * inst.scale,
         }
     }

@@ -155,6 +155,64 @@ fn a_homogeneous_texel_seen_along_an_axis_transmits_exp_minus_sigma_length() {
     }
 }
 
+/// A level's directional form scales extinction by `sqrt(q(w))` along the ray's direction in
+/// model space: along z by `sqrt(S_zz + c)`, along a turned instance's x likewise by its
+/// model-space direction, for view and shadow rays alike.
+#[test]
+fn directional_extinction_scales_optical_depth_by_the_form() {
+    let sigma = 0.4f32;
+    let mut texel = uniform_texel([8, 8, 8], 0.25, DVec3::ZERO, sigma, [0.5; 3]);
+    let form = [0.5f32, 2.0, 1.44, 0.0, 0.0, 0.0, 0.25];
+    for l in &mut texel.levels {
+        l.directional = form;
+    }
+    let along_z = (form[2] + form[6]).sqrt();
+    let along_x = (form[0] + form[6]).sqrt();
+    for (rotation, k) in [(0.0f32, along_z), (std::f32::consts::FRAC_PI_2, along_x)] {
+        let scene = Scene::new(
+            DVec3::new(1.0, 1.0, 10.0),
+            vec![texel.clone()],
+            vec![look()],
+            &[Placed {
+                rotation,
+                ..placed(DVec3::new(0.0, 0.0, 0.0))
+            }],
+            None,
+            Lighting {
+                sun: HEAD_ON,
+                shading: PLAIN,
+                sky: None,
+            },
+        );
+        let march = March {
+            cutoff: 0.0,
+            ..March::default()
+        };
+        // Through the middle of the (possibly turned) box, 2 m of it either way.
+        let dir = Vec3::NEG_Z;
+        let t = transmittance(
+            &scene,
+            Vec3::new(0.0, 0.0, 5.0),
+            dir,
+            f32::INFINITY,
+            0.0,
+            7,
+            &march,
+        );
+        let want = (-sigma * 2.0 * k).exp();
+        assert!(
+            (t - want).abs() < 1e-3 * want,
+            "rotation {rotation}: {t} vs {want}"
+        );
+        let r = radiance(&scene, dir, 0.0, 3, &march);
+        assert!(
+            (r.transmittance - want).abs() < 1e-3 * want,
+            "{} vs {want}",
+            r.transmittance
+        );
+    }
+}
+
 #[test]
 fn an_opaque_slab_lit_head_on_gives_the_lambert_radiance() {
     // A slab 4 m x 4 m x 1 m, very dense, facing +z; eye and sun on the +z side.

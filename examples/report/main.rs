@@ -8,14 +8,19 @@
 //! texel renderer that trades speed for error. Then flicker: the far view rendered with
 //! sub-pixel camera jitter, and the mean per-pixel standard deviation across the frames.
 //!
-//! Writes `report/speed_vs_error.csv`, `report/README.md` (tables and the headline) and
-//! `report/speed_vs_error_<view>.png`. Everything runs through the `texel` binary, as a user's
+//! Then the error budget (`budget.rs`): the texel method's error split into coverage,
+//! shading, shadows and noise. `make budget` runs that part alone.
+//!
+//! Writes `report/speed_vs_error.csv`, `report/README.md` (tables and the headline),
+//! `report/speed_vs_error_<view>.png` and `report/error_budget.{md,csv,png}`. Everything runs through the `texel` binary, as a user's
 //! build would.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
+
+mod budget;
 
 use sha2::{Digest, Sha256};
 use texel_forest::compare::{Rgba, compare};
@@ -154,26 +159,38 @@ impl Report {
         self.run(&args)
     }
 
-    /// The ground truth for `view`: a mesh render at many spp, reused while the forest, the
-    /// models and the mesh renderer's sources are unchanged.
-    fn reference(&self, forest: &str, view: &View) -> PathBuf {
+    /// The ground truth for `view`: a mesh render at many spp with its canopy AOV, and `extra`
+    /// flags (`--no-shadows` for the error budget), reused while the forest, the models and
+    /// the mesh renderer's sources are unchanged.
+    fn reference(&self, forest: &str, view: &View, extra: &[&str]) -> PathBuf {
         let mut key = Sha256::new();
-        key.update(std::fs::read(self.work.join(forest)).unwrap());
+        // The trees' places, not the file: it also records the textures' hashes, and a
+        // re-baked texture changes nothing the mesh method draws.
+        let bytes = std::fs::read(self.work.join(forest)).unwrap();
+        let placed = texel_forest::formats::instances::decode(&bytes).unwrap();
+        key.update(format!("{:?}", placed.instances));
         for (_, file) in TREES {
             key.update(std::fs::read(self.root.join("fixtures/trees").join(file)).unwrap());
         }
+        key.update(std::fs::read(self.root.join("fixtures/species/forest.json")).unwrap());
         for src in [
             "src/render/mesh.rs",
             "src/render/scene.rs",
             "src/render/camera.rs",
             "src/render/mod.rs",
-            "src/render/integrate.rs",
+            "src/render/instances.rs",
+            "src/render/shading.rs",
             "src/mesh_tracer.rs",
             "src/geom/bvh.rs",
+            "src/geom/offset.rs",
+            "src/geom/triangle.rs",
         ] {
             key.update(std::fs::read(self.root.join(src)).unwrap());
         }
-        key.update(format!("{:?} {WIDTH} {HEIGHT} {REFERENCE_SPP}", view.flags));
+        key.update(format!(
+            "{:?} {extra:?} {WIDTH} {HEIGHT} {REFERENCE_SPP}",
+            view.flags
+        ));
         let key: String = key.finalize()[..8]
             .iter()
             .map(|b| format!("{b:02x}"))
@@ -183,17 +200,17 @@ impl Report {
         let path = cache.join(format!("{}-{key}.exr", view.name));
         if !path.exists() {
             eprintln!(
-                "report: reference for the {} view ({REFERENCE_SPP} spp mesh)...",
-                view.name
+                "report: reference for the {} view ({REFERENCE_SPP} spp mesh {})...",
+                view.name,
+                extra.join(" ")
             );
             let tmp = cache.join(format!("{}-{key}.tmp.exr", view.name));
             let spp = REFERENCE_SPP.to_string();
-            let seconds = self.render(
-                forest,
-                view,
-                &["--method", "mesh", "--spp", &spp, "--seed", "7"],
-                tmp.to_str().unwrap(),
-            );
+            let mut flags = vec![
+                "--method", "mesh", "--spp", &spp, "--seed", "7", "--aov", "canopy",
+            ];
+            flags.extend_from_slice(extra);
+            let seconds = self.render(forest, view, &flags, tmp.to_str().unwrap());
             std::fs::rename(&tmp, &path).unwrap();
             eprintln!("report: reference took {seconds:.0} s");
         }
@@ -221,8 +238,11 @@ impl Report {
         default_forest: &str,
         rows: &mut Vec<Row>,
     ) {
-        let reference =
-            Rgba::read(&self.reference(default_forest, view), &Default::default()).unwrap();
+        let reference = Rgba::read(
+            &self.reference(default_forest, view, &[]),
+            &Default::default(),
+        )
+        .unwrap();
         eprintln!("report: the {} view...", view.name);
         let out = format!("{}.exr", view.name);
         let mut record = |method: &str, setting: &str, spp: u32, seconds: f64| {
@@ -392,6 +412,12 @@ fn main() {
     };
     std::fs::create_dir_all(&report.work).unwrap();
     let started = Instant::now();
+    // `make budget`: the error budget alone, for iterating on the method's accuracy.
+    if std::env::args().any(|a| a == "--budget") {
+        let forest = report.variant("transmittance", 32);
+        print!("{}", budget::run(&report, &forest, &root.join("report")));
+        return;
+    }
 
     eprintln!("report: baking and placing the variants...");
     let variants = report.variants();
@@ -407,16 +433,18 @@ fn main() {
         report.measure_view(view, &variants, &default_forest, &mut rows);
     }
     let flicker = report.flicker(&default_forest);
+    let budget = budget::run(&report, &default_forest, &root.join("report"));
 
     write_outputs(
         &root.join("report"),
         &rows,
         &flicker,
+        &budget,
         started.elapsed().as_secs_f64(),
     );
 }
 
-fn write_outputs(dir: &Path, rows: &[Row], flicker: &[(&str, f64)], seconds: f64) {
+fn write_outputs(dir: &Path, rows: &[Row], flicker: &[(&str, f64)], budget: &str, seconds: f64) {
     write_csv(dir, rows);
     let mut md = format!(
         "# Speed against error\n\nWritten by `make report` ({seconds:.0} s). Images {WIDTH} x {HEIGHT}; \
@@ -427,6 +455,8 @@ fn write_outputs(dir: &Path, rows: &[Row], flicker: &[(&str, f64)], seconds: f64
     for view in VIEWS.iter().map(|v| v.name) {
         write_headline(&mut md, view, rows);
     }
+    md += "\n";
+    md += budget;
     md += "\n## Flicker (far view, camera moved by sub-pixel steps over ";
     md += &format!(
         "{FLICKER_FRAMES} frames; mean per-pixel standard deviation)\n\n| method | flicker |\n|---|---|\n"

@@ -1,0 +1,210 @@
+//! The error budget: the texel method's error against the mesh reference, split into the
+//! parts its approximations cause, each measured by rendering both methods with the rest
+//! switched off, so every change to the method can name the part it cuts and by how much.
+//!
+//! - **coverage**: the trees' alpha alone (`canopy.A` of both), in alpha units: silhouettes,
+//!   crown density, mip levels;
+//! - **shading**: colour with shadows switched off in both (`--no-shadows`): normals, the
+//!   phase function, albedo mixing, and coverage's effect on colour;
+//! - **shadows**: the error of what shadows take away, `(T - T_unshadowed) - (M -
+//!   M_unshadowed)`: self-shadowing inside crowns, shadow mip levels, shadows on the ground;
+//! - **noise**: the spread over seeds, `rms(T_seed0 - T_seed1) / sqrt 2`.
+//!
+//! The parts are RMSEs over the frame, so they do not add up to the total; each bounds what
+//! removing its cause alone could gain. The bias on tree pixels (where the reference's canopy
+//! is above one half) is given as mean ratios per channel, as `texel compare --mask REF.exr
+//! --mask-channel canopy.A` reports them.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use texel_forest::compare::{Rgba, compare};
+use texel_forest::plot::{Bars, PALETTE};
+
+use crate::{Report, VIEWS, View};
+
+/// Samples per pixel of the texel renders the budget measures (their noise is its own part).
+pub const BUDGET_SPP: u32 = 16;
+
+/// One view's budget (RMSEs; coverage in alpha, the rest in radiance).
+pub struct Budget {
+    pub view: &'static str,
+    pub total: f64,
+    pub coverage: f64,
+    pub shading: f64,
+    pub shadows: f64,
+    pub noise: f64,
+    /// Texel over mesh mean radiance on tree pixels, per channel.
+    pub ratio: [Option<f64>; 3],
+    /// Texel over mesh mean canopy alpha over the frame: how much wider the crowns are.
+    pub canopy_ratio: f64,
+    pub tree_pixels: usize,
+}
+
+/// Root mean square over pixels and colour channels of `f(pixel, channel)`.
+fn rms(pixels: usize, f: impl Fn(usize, usize) -> f64) -> f64 {
+    let sum: f64 = (0..pixels)
+        .flat_map(|i| (0..3).map(move |c| (i, c)))
+        .map(|(i, c)| f(i, c).powi(2))
+        .sum();
+    (sum / (3 * pixels.max(1)) as f64).sqrt()
+}
+
+fn read(path: &Path) -> Rgba {
+    Rgba::read(path, &Default::default()).unwrap()
+}
+
+fn canopy(path: &Path) -> Vec<f32> {
+    Rgba::read_channels(path, ["canopy.A"; 4], &Default::default())
+        .unwrap()
+        .pixels
+        .iter()
+        .map(|p| p[0])
+        .collect()
+}
+
+impl Report {
+    /// The budget of the texel method at [`BUDGET_SPP`] on `forest` from `view`.
+    pub fn budget(&self, forest: &str, view: &View) -> Budget {
+        eprintln!("report: error budget of the {} view...", view.name);
+        let reference = self.reference(forest, view, &[]);
+        let unshadowed_reference = self.reference(forest, view, &["--no-shadows"]);
+        let spp = BUDGET_SPP.to_string();
+        let out = |tag: &str| format!("budget-{}-{tag}.exr", view.name);
+        let texel = |tag: &str, extra: &[&str]| {
+            let mut flags = vec!["--spp", &spp, "--aov", "canopy"];
+            flags.extend_from_slice(extra);
+            self.render(forest, view, &flags, &out(tag));
+            self.work.join(out(tag))
+        };
+        let t = texel("full", &[]);
+        let t_seed = texel("seed1", &["--seed", "1"]);
+        let t_unshadowed = texel("unshadowed", &["--no-shadows"]);
+        let (m, mn) = (read(&reference), read(&unshadowed_reference));
+        let (tf, ts, tn) = (read(&t), read(&t_seed), read(&t_unshadowed));
+        let n = m.pixels.len();
+        let value = |img: &Rgba, i: usize, c: usize| f64::from(img.pixels[i][c]);
+        let (canopy_t, canopy_m) = (canopy(&t), canopy(&reference));
+        let trees: Vec<bool> = canopy_m.iter().map(|&a| a > 0.5).collect();
+        let on_trees = compare(&tf, &m, |i| trees[i]);
+        Budget {
+            view: view.name,
+            total: compare(&tf, &m, |_| true).rgb.rmse,
+            coverage: (canopy_t
+                .iter()
+                .zip(&canopy_m)
+                .map(|(a, b)| f64::from(a - b).powi(2))
+                .sum::<f64>()
+                / n as f64)
+                .sqrt(),
+            shading: compare(&tn, &mn, |_| true).rgb.rmse,
+            shadows: rms(n, |i, c| {
+                (value(&tf, i, c) - value(&tn, i, c)) - (value(&m, i, c) - value(&mn, i, c))
+            }),
+            noise: rms(n, |i, c| value(&tf, i, c) - value(&ts, i, c)) / 2f64.sqrt(),
+            ratio: on_trees.mean_ratio,
+            canopy_ratio: canopy_t.iter().map(|&a| f64::from(a)).sum::<f64>()
+                / canopy_m
+                    .iter()
+                    .map(|&a| f64::from(a))
+                    .sum::<f64>()
+                    .max(1e-12),
+            tree_pixels: on_trees.pixels,
+        }
+    }
+}
+
+/// The parts as they are drawn and tabulated: name and value.
+fn parts(b: &Budget) -> [(&'static str, f64); 5] {
+    [
+        ("total", b.total),
+        ("coverage (alpha)", b.coverage),
+        ("shading, unshadowed", b.shading),
+        ("shadows", b.shadows),
+        ("noise", b.noise),
+    ]
+}
+
+/// The budgets as a Markdown section (also written alone to `error_budget.md`), a CSV and a
+/// bar chart, under `dir`.
+pub fn write(dir: &Path, budgets: &[Budget]) -> String {
+    let mut md = format!(
+        "## Error budget (texel method, {BUDGET_SPP} spp, against the mesh reference)\n\n\
+         Each part is the RMSE with the rest switched off (see `examples/report/budget.rs`); \
+         coverage is in alpha, the rest in radiance. Ratios: texel over mesh mean radiance on \
+         tree pixels (reference canopy above one half).\n\n\
+         | view | total | coverage (alpha) | canopy ratio | shading, unshadowed | shadows | noise | ratio R / G / B on trees |\n\
+         |---|---:|---:|---:|---:|---:|---:|---|\n"
+    );
+    let mut csv = String::from(
+        "view,total,coverage,shading,shadows,noise,ratio_r,ratio_g,ratio_b,tree_pixels\n",
+    );
+    let ratio = |r: Option<f64>| r.map_or("-".to_string(), |r| format!("{r:.3}"));
+    for b in budgets {
+        let p = parts(b);
+        writeln!(
+            md,
+            "| {} | {:.5} | {:.5} | {:.3} | {:.5} | {:.5} | {:.5} | {} / {} / {} |",
+            b.view,
+            p[0].1,
+            p[1].1,
+            b.canopy_ratio,
+            p[2].1,
+            p[3].1,
+            p[4].1,
+            ratio(b.ratio[0]),
+            ratio(b.ratio[1]),
+            ratio(b.ratio[2])
+        )
+        .unwrap();
+        writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{},{},{},{}",
+            b.view,
+            p[0].1,
+            p[1].1,
+            b.canopy_ratio,
+            p[2].1,
+            p[3].1,
+            p[4].1,
+            ratio(b.ratio[0]),
+            ratio(b.ratio[1]),
+            ratio(b.ratio[2]),
+            b.tree_pixels
+        )
+        .unwrap();
+    }
+    md += "\n![error budget](error_budget.png)\n";
+    let bars = Bars {
+        title: format!(
+            "texel method's error by part, {BUDGET_SPP} spp, against the mesh reference"
+        ),
+        y_label: "RMSE".into(),
+        groups: budgets.iter().map(|b| b.view.to_string()).collect(),
+        series: (0..5)
+            .map(|k| {
+                let name = parts(&budgets[0])[k].0.to_string();
+                (
+                    name,
+                    PALETTE[k],
+                    budgets.iter().map(|b| parts(b)[k].1).collect(),
+                )
+            })
+            .collect(),
+    };
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join("error_budget.csv"), csv).unwrap();
+    std::fs::write(dir.join("error_budget.md"), &md).unwrap();
+    std::fs::write(
+        dir.join("error_budget.png"),
+        texel_forest::png::encode(&bars.draw(900, 420)),
+    )
+    .unwrap();
+    md
+}
+
+/// The budget of every view on `forest`, written under `dir`; returns its Markdown.
+pub fn run(report: &Report, forest: &str, dir: &Path) -> String {
+    let budgets: Vec<Budget> = VIEWS.iter().map(|v| report.budget(forest, v)).collect();
+    write(dir, &budgets)
+}
