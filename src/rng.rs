@@ -11,6 +11,8 @@ pub mod purpose {
     pub const BAKE_BLEND: u64 = 0x626c_656e_6473;
     /// Whether an alpha-blended surface stops a ray of the directional calibration.
     pub const CALIBRATION: u64 = 0x0063_616c_6962;
+    /// Which foliage samples of a self-shadowing view ray carry its depth towards the sun.
+    pub const SELF_SHADOW: u64 = 0x7365_6c66;
     // Placement.
     /// A band's own stream of darts.
     pub const BAND: u64 = 0x6261_6e64;
@@ -35,6 +37,10 @@ pub mod purpose {
     pub const SEGMENT_JITTER: u64 = 0x72;
     pub const SEGMENT_ROULETTE: u64 = 0x7272;
     pub const SEGMENT_LIGHT: u64 = 0x6c;
+    /// The leaf normal a segment's foliage is shaded with (`render::leaves`).
+    pub const SEGMENT_LEAF: u64 = 0x6c66;
+    /// Which part of a segment's mixture (wood or foliage) scatters its light.
+    pub const SEGMENT_PART: u64 = 0x7061;
     /// The terrain hit's shadow ray: `hash3(ray key, 0, ..)` with these, which no segment
     /// purpose equals (a segment index in the middle slot once made the ground's stream that
     /// of segment 103).
@@ -160,6 +166,8 @@ mod purposes {
             SEGMENT_JITTER,
             SEGMENT_ROULETTE,
             SEGMENT_LIGHT,
+            SEGMENT_LEAF,
+            SEGMENT_PART,
             GROUND_ROULETTE,
             GROUND_LIGHT,
         ];

@@ -30,6 +30,28 @@ impl DensityModel {
     }
 }
 
+/// Angles (degrees) between the directions to the eye and to the sun at which a level stores
+/// its self-shadowing factors (`formats/texel.md`, *Self-shadowing*).
+pub const SELF_SHADOW_ANGLES: [f32; 6] = [0.0, 15.0, 30.0, 60.0, 90.0, 180.0];
+
+/// Self-shadowing of independent media: every factor 1.
+pub const NO_SELF_SHADOW: [f32; 6] = [1.0; 6];
+
+/// The leaf-normal moment of leaves facing every way alike: `E[n n^T] = I / 3`.
+pub const ISOTROPIC_LEAVES: [f32; 6] = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.0, 0.0, 0.0];
+
+/// `m` held to what a second moment of unit vectors can be (diagonal in [0, 1], the rest in
+/// [-1, 1]): sums in floating point may overshoot by a rounding.
+pub fn unit_moment(m: [f32; 6]) -> [f32; 6] {
+    std::array::from_fn(|k| {
+        if k < 3 {
+            m[k].clamp(0.0, 1.0)
+        } else {
+            m[k].clamp(-1.0, 1.0)
+        }
+    })
+}
+
 /// The directional form of an isotropic level: `q(w) = 1`.
 pub const ISOTROPIC: [f32; 7] = [1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0];
 
@@ -50,10 +72,23 @@ pub struct Level {
     pub gradient: [Vec<[f32; 3]>; 2],
     /// Linear albedo of each part's surfaces; filled in from neighbours where the part is absent.
     pub albedo: [Vec<[f32; 3]>; 2],
+    /// The foliage's leaf-normal distribution per cell: the area-weighted second moment
+    /// `E[n n^T]` of its surface normals, `[xx, yy, zz, xy, xz, yz]` (trace 1), which shades
+    /// the foliage as a cloud of leaves (see `render::shading`); [`ISOTROPIC_LEAVES`] where no
+    /// leaf was seen, and in files before texel 1.2.
+    pub leaves: Vec<[f32; 6]>,
     /// Directional extinction `[S_xx, S_yy, S_zz, S_xy, S_xz, S_yz, c]`: along a unit
     /// direction `w` extinction is the stored one times `sqrt(q(w))`, `q(w) = w^T S w + c (w_x^4
     /// + w_y^4 + w_z^4)` (see `bake::calibrate`; [`ISOTROPIC`] in files before texel 1.2).
     pub directional: [f32; 7],
+    /// Self-shadowing: the factor on the tree's own extinction along a foliage sample's shadow
+    /// ray, at each angle of [`SELF_SHADOW_ANGLES`] between the eye's and the sun's directions
+    /// (see `bake::self_shadow`; [`NO_SELF_SHADOW`] in files before texel 1.2).
+    pub self_shadow: [f32; 6],
+    /// The weight on the wood's extinction in choosing which part of a sample scatters: the
+    /// wood shows as much as in the mesh, not wherever a coarse cell mixes it with foliage
+    /// (see `bake::seen`; 1 in files before texel 1.2).
+    pub wood_weight: f32,
 }
 
 impl Level {
@@ -65,8 +100,21 @@ impl Level {
             density: [vec![0.0; n], vec![0.0; n]],
             gradient: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
             albedo: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
+            leaves: vec![ISOTROPIC_LEAVES; n],
             directional: ISOTROPIC,
+            self_shadow: NO_SELF_SHADOW,
+            wood_weight: 1.0,
         }
+    }
+
+    /// The self-shadowing factor for an angle of `cos_g` (its cosine) between the directions to
+    /// the eye and to the sun: linear in the angle between the stored ones.
+    pub fn self_shadow_at(&self, cos_g: f32) -> f32 {
+        let g = cos_g.clamp(-1.0, 1.0).acos().to_degrees();
+        let a = &SELF_SHADOW_ANGLES;
+        let i = a[1..].iter().position(|&x| g <= x).unwrap_or(a.len() - 2);
+        let u = ((g - a[i]) / (a[i + 1] - a[i])).clamp(0.0, 1.0);
+        self.self_shadow[i] * (1.0 - u) + self.self_shadow[i + 1] * u
     }
 
     /// The factor extinction takes along direction `d` (model space, any non-zero length):
@@ -171,6 +219,12 @@ impl Level {
                 f.albedo[p] += Vec3::from(self.albedo[p][i]) * w[k];
             }
         }
+        for k in 0..8 {
+            let leaves = &self.leaves[idx[k]];
+            for (sum, m) in f.leaves.iter_mut().zip(leaves) {
+                *sum += m * w[k];
+            }
+        }
         f
     }
 }
@@ -181,6 +235,8 @@ pub struct Fetch {
     pub density: [f32; 2],
     pub gradient: [Vec3; 2],
     pub albedo: [Vec3; 2],
+    /// The foliage's leaf-normal moment (see [`Level::leaves`]).
+    pub leaves: [f32; 6],
 }
 
 /// Outward unit normal from a density gradient (`-g / |g|`), or `None` where the gradient

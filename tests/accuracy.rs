@@ -285,3 +285,100 @@ fn an_axis_aligned_box_bakes_to_an_opaque_block() {
         );
     }
 }
+
+/// Texel over mesh radiance summed over the frame, per colour channel and for alpha: one
+/// fixture tree alone (no terrain), seen from `eye_dir` with the sun `g` degrees from the eye,
+/// the texture read `lod_bias` levels coarser than the finest.
+fn tree_radiance_ratio(tree: &str, g: f64, lod_bias: f32) -> [f64; 4] {
+    use texel_forest::render::scene::TreeMesh;
+    use texel_forest::render::{
+        Camera, Lighting, Look, March, Method, Placed, RenderSettings, Scene, Shading, Sun, render,
+    };
+    let model = import::load(&fixture(tree)).unwrap();
+    let texel = bake::bake(&model.mesh, &BakeSettings::default()).unwrap();
+    let foliage = bake::foliage_triangles(&model.mesh, &texel.info.parameters).unwrap();
+    let height = texel.info.model_max[1] - texel.info.model_min[1];
+    let centre = DVec3::new(0.0, 0.5 * height, 0.0);
+    // A view from the south-south-west, 25 degrees up; the sun turned from the eye about the
+    // vertical plane's normal, up and away.
+    let to_eye = DVec3::new(-0.35, 0.42, 0.84).normalize();
+    let axis = to_eye.cross(DVec3::Y).normalize();
+    let to_sun = glam::DQuat::from_axis_angle(axis, g.to_radians()) * to_eye;
+    assert!(to_sun.y > to_eye.y, "the sun above the eye");
+    let sun = Sun {
+        direction: to_sun.as_vec3(),
+        irradiance: std::f32::consts::PI,
+    };
+    let scene = Scene::new(
+        centre + to_eye * 4.0 * height,
+        vec![texel],
+        vec![Look {
+            texel: 0,
+            foliage: 1.0,
+            foliage_albedo: glam::Vec3::new(0.05, 0.12, 0.04),
+        }],
+        &[Placed {
+            look: 0,
+            position: DVec3::ZERO,
+            rotation: 0.0,
+            scale: 1.0,
+        }],
+        None,
+        Lighting {
+            sun,
+            shading: Shading::default(),
+            sky: None,
+        },
+    )
+    .with_meshes(vec![TreeMesh::new(model.mesh, foliage)]);
+    let camera = Camera::look_at(scene.origin, centre, 18.0, 96, 96).unwrap();
+    let image = |method, spp| {
+        render(
+            &scene,
+            &camera,
+            &RenderSettings {
+                method,
+                spp,
+                march: March {
+                    lod_bias,
+                    ..March::default()
+                },
+                ..RenderSettings::default()
+            },
+            &|_| {},
+        )
+    };
+    let (texel, mesh) = (image(Method::Texel, 16), image(Method::Mesh, 64));
+    // Over the whole frame: the tree's light, whatever its silhouette's blur.
+    std::array::from_fn(|c| {
+        let sum =
+            |f: &texel_forest::render::Film| f.rgba.iter().map(|p| f64::from(p[c])).sum::<f64>();
+        sum(&texel) / sum(&mesh)
+    })
+}
+
+/// The foliage shades as a cloud of leaves, shows as much wood and shadows itself as the mesh
+/// does, at the finest level and at a coarse one, near the hot spot and away from it: a lone
+/// tree's light (the frame's sum, per channel) is within 12 % of the mesh method's, and its
+/// light per unit of coverage within 10 % (the coverage from one view is the silhouette's own
+/// error, 3-6 % here). With the gradient's normal, independent-media shadows and wood shown by
+/// its extinction, the forest's trees were 9-15 % darker and 9 % redder.
+#[test]
+fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
+    for tree in ["trees/conifer.glb", "trees/broadleaf.gltf"] {
+        for g in [20.0, 60.0] {
+            for lod_bias in [0.0, 2.0] {
+                let r = tree_radiance_ratio(tree, g, lod_bias);
+                println!(
+                    "{tree:<22} sun {g:>2} degrees from the eye, level +{lod_bias}: texel / mesh R {:.3} G {:.3} B {:.3} A {:.3}",
+                    r[0], r[1], r[2], r[3]
+                );
+                for c in 0..3 {
+                    assert!((r[c] - 1.0).abs() < 0.12, "{tree} {g} {lod_bias}: {r:?}");
+                    let shading = r[c] / r[3];
+                    assert!((shading - 1.0).abs() < 0.1, "{tree} {g} {lod_bias}: {r:?}");
+                }
+            }
+        }
+    }
+}

@@ -471,3 +471,22 @@ fn render_at(dir: &Path, eye: &str, target: &str) -> std::process::Output {
         dir,
     )
 }
+
+/// A texture baked before 1.2 lacks what the foliage model needs (leaf normals, self-shadowing,
+/// wood weights): `inspect` still reads it, `render` refuses it with a message to re-bake,
+/// and writes nothing.
+#[test]
+fn a_texel_older_than_1_2_is_refused_with_a_message_to_rebake() {
+    let dir = small_forest();
+    let path = dir.path().join("trees/conifer.texel");
+    let t = texel_forest::formats::texel::decode(&std::fs::read(&path).unwrap()).unwrap();
+    std::fs::write(&path, texel_forest::formats::texel::encode_v1_1(&t)).unwrap();
+    let o = run(&["inspect", "trees/conifer.texel"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("texel 1.1"));
+    let o = place_on_mountain(dir.path(), &["--region=-120,-120,120,120"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render(dir.path(), &["-o", "old.exr"]);
+    assert_error(&o, &["trees/conifer.texel", "texel 1.1", "re-bake it"]);
+    assert!(!dir.path().join("old.exr").exists());
+}

@@ -130,12 +130,14 @@ def read_texel_header(c, minor, R):
                         "requested_gamma": c.option(c.f64)},
          "levels": c.vec(lambda: {"dims": list(c.un("3I")), "cell": c.f64()}),
          "channels": c.vec(lambda: {"name": c.string(), "components": c.u8(), "encoding": c.enum([F32, U16]), "unit": c.string()}),
-         "wood_pattern": None, "materials": [], "directional": None}
+         "wood_pattern": None, "materials": [], "directional": None, "self_shadow": None, "wood_weight": None}
     if minor >= 1:
         h["wood_pattern"] = c.option(c.string)
         h["materials"] = c.vec(lambda: {"name": c.string(), "reason": c.enum(REASONS), "cut": c.f32(), "triangles": c.u64()})
     if minor >= 2:
         h["directional"] = c.vec(lambda: list(c.un("7f")))
+        h["self_shadow"] = c.vec(lambda: list(c.un("6f")))
+        h["wood_weight"] = c.vec(c.f32)
     if not all(map(math.isfinite, h["model_min"] + h["model_max"] + h["origin"])): raise Bad("1: non-finite model_min, model_max or origin")
     g = h["extinction_scale"]
     if not (math.isfinite(g) and g > 0): raise Bad(f"2: extinction_scale {g} is not positive and finite")
@@ -164,14 +166,23 @@ def read_texel_header(c, minor, R):
     if D is not None:
         if len(D) != len(L): raise Bad(f"9b: {len(D)} directional forms for {len(L)} levels")
         if any(not (math.isfinite(v) and abs(v) <= 4096) for form in D for v in form): raise Bad("9b: a directional form entry out of range")
+        K = h["self_shadow"]
+        if len(K) != len(L): raise Bad(f"9b: {len(K)} self-shadowing rows for {len(L)} levels")
+        if any(not 0 <= v <= 64 for row in K for v in row): raise Bad("9b: a self-shadowing factor outside [0, 64]")
+        W = h["wood_weight"]
+        if len(W) != len(L): raise Bad(f"9b: {len(W)} wood weights for {len(L)} levels")
+        if any(not 1 / 4096 <= w <= 4096 for w in W): raise Bad("9b: a wood weight outside [1/4096, 4096]")
     else:
         h["directional"] = [[1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0] for _ in L]
+        h["self_shadow"] = [[1.0] * 6 for _ in L]
+        h["wood_weight"] = [1.0 for _ in L]
     cells = sum(math.prod(l["dims"]) for l in L)
     per_cell = sum(k["components"] * (4 if k["encoding"] == F32 else 2) for k in ch)
     if cells * per_cell != R: raise Bad(f"10: header implies a payload of {cells * per_cell} bytes, R = {R}")
     have = {k["name"]: (k["components"], k["encoding"]) for k in ch}
     for name, want in REQUIRED.items():
         if have.get(name) != want: raise Bad(f"11: channel {name} missing or not {want[0]} x {want[1]} (got {have.get(name)})")
+    if "leaves_foliage" in have and have["leaves_foliage"] != (6, F32): raise Bad(f"11: channel leaves_foliage is not 6 x F32 (got {have['leaves_foliage']})")
     if cells > CELL_LIMIT: raise Bad(f"{cells} cells, more than this reader's limit of {CELL_LIMIT}")
     return h
 
@@ -190,6 +201,11 @@ def read_texel_payload(h, payload):
             if any(not math.isfinite(v) or v < 0 for v in chans[name]): raise Bad(f"12: level {n}: a negative or non-finite {name}")
         for name in ("gradient_wood", "gradient_foliage"):
             if not all(map(math.isfinite, chans[name])): raise Bad(f"12: level {n}: a non-finite {name}")
+        if "leaves_foliage" in chans:
+            lv = chans["leaves_foliage"]
+            for i in range(0, len(lv), 6):
+                if not (all(0 <= v <= 1 for v in lv[i:i + 3]) and all(-1 <= v <= 1 for v in lv[i + 3:i + 6])):
+                    raise Bad(f"12: level {n}: leaves_foliage {list(lv[i:i + 6])} is no moment of unit vectors")
         h["data"].append(chans)
 
 def directional_factor(form, w):  # k_n(w) of formats/texel.md, for any non-zero w
@@ -214,6 +230,8 @@ def texel_summary(h):
     for m in h["materials"]: print(f"  material {m['name']!r}: {m['reason']}, cut {m['cut']}, {m['triangles']} triangles")
     for n, form in enumerate(h["directional"]):
         print(f"  level {n} directional form {[short32(v) for v in form]}: k along x, y, z {[round(directional_factor(form, w), 4) for w in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]}")
+    for n, row in enumerate(h["self_shadow"]):
+        print(f"  level {n} self-shadowing at 0, 15, 30, 60, 90, 180 degrees {[short32(v) for v in row]}; wood weight {short32(h['wood_weight'][n])}")
     print("  channels: " + ", ".join(f"{k['name']}[{k['components']} {k['encoding']} {k['unit']}]" for k in h["channels"]))
     for n, (l, ch) in enumerate(zip(h["levels"], h["data"])):
         print(f"  level {n}: {'x'.join(map(str, l['dims']))} of {l['cell']!r} m; sum density_wood {math.fsum(ch['density_wood']):.10g}, density_foliage {math.fsum(ch['density_foliage']):.10g}")
@@ -295,8 +313,8 @@ def check_golden(h):
         if got != want: bad.append(f"{what}: decoded {got!r}, spec says {want!r}")
     name = os.path.basename(h["path"])
     if name == "conifer-8.texel":
-        eq("size", h["size"], 5865); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("3109ca23", "22dc55e6"))
-        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 2), 826, 10780, 5003))
+        eq("size", h["size"], 8441); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("82b85314", "cedaf362"))
+        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 2), 990, 16660, 7415))
         eq("generator", h["generator"], "texel-forest 0.1.0")
         eq("density_model, extinction_scale", (h["density_model"], h["extinction_scale"]), ("Transmittance", 1.0))
         eq("triangles, foliage_triangles", (h["triangles"], h["foliage_triangles"]), (9634, 4698))
@@ -312,9 +330,14 @@ def check_golden(h):
         eq("cell (2,4,2) densities (binary32)", v["density_wood"] + v["density_foliage"], [f32(0.068693906), f32(0.41991684)])
         eq("cell (2,4,2) gradient_foliage (binary32)", v["gradient_foliage"], [f32(0.01636479), f32(-0.09628876), f32(-0.0036591163)])
         eq("cell (2,4,2) albedo_foliage (n/65535 as binary32)", [f32(a) for a in v["albedo_foliage"]], [f32(0.018005647), f32(0.050003815), f32(0.02200351)])
+        eq("cell (2,4,2) leaves_foliage (binary32)", v["leaves_foliage"], [f32(x) for x in (0.31541827, 0.4506226, 0.23395924, -0.016198598, -0.0015631133, 0.007044819)])
         D = h["directional"]
         eq("directional, level 0 (binary32)", D[0], [f32(x) for x in (0.8983114, 0.6146763, 0.96688735, 0.07323644, 0.037996933, -0.06381932, -0.20966367)])
         eq("directional, level 3 (binary32)", D[3], [f32(x) for x in (0.9592197, 0.4470953, 1.027047, 0.035669524, 0.043990564, -0.031866185, -0.14811616)])
+        K = h["self_shadow"]
+        eq("self_shadow, level 0 (binary32)", K[0], [f32(x) for x in (0, 1.2875929, 2.9111366, 6.0980687, 12.62723, 12.62723)])
+        eq("self_shadow, level 3 (binary32)", K[3], [f32(x) for x in (0, 5.8993373, 12.525481, 16, 16, 16)])
+        eq("wood_weight, levels 0 and 3 (binary32)", [h["wood_weight"][0], h["wood_weight"][3]], [f32(0.46190625), f32(0.33841807)])
         eq("k_0 along y and along the body diagonal (6 decimals)", [round(directional_factor(D[0], w), 6) for w in ((0, 1, 0), (1, 1, 1))], [0.636406, 0.887889])
     elif name == "forest-12.instances":
         eq("size", h["size"], 1120); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("dcb70327", "b8048eac"))

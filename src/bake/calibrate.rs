@@ -132,7 +132,13 @@ pub fn directional_forms(
 /// box `lo..hi`'s shadow (stratified, so thin axis-aligned branches do not alias with a
 /// regular lattice), each as (origin before the box, parameter after it). `stream` keys the
 /// random points.
-fn lattice(lo: DVec3, hi: DVec3, d: DVec3, spacing: f64, stream: u64) -> Vec<(DVec3, f64)> {
+pub(super) fn lattice(
+    lo: DVec3,
+    hi: DVec3,
+    d: DVec3,
+    spacing: f64,
+    stream: u64,
+) -> Vec<(DVec3, f64)> {
     let helper = if d.y.abs() < 0.9 { DVec3::Y } else { DVec3::X };
     let e1 = d.cross(helper).normalize();
     let e2 = d.cross(e1);
@@ -172,22 +178,7 @@ fn lattice(lo: DVec3, hi: DVec3, d: DVec3, spacing: f64, stream: u64) -> Vec<(DV
 /// between where the ray enters and leaves the level's box: density jumps from zero at the
 /// box's faces and is continuous inside, so the steps must start and end there.
 fn depth(level: &Level, origin: DVec3, o: DVec3, d: DVec3) -> f64 {
-    let size = DVec3::from(level.dims.map(|n| n as f64)) * level.cell;
-    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
-    for a in 0..3 {
-        if d[a] == 0.0 {
-            if o[a] < origin[a] || o[a] > origin[a] + size[a] {
-                return 0.0;
-            }
-            continue;
-        }
-        let (near, far) = (
-            (origin[a] - o[a]) / d[a],
-            (origin[a] + size[a] - o[a]) / d[a],
-        );
-        t0 = t0.max(near.min(far));
-        t1 = t1.min(near.max(far));
-    }
+    let (t0, t1) = box_interval(level, origin, o, d);
     if t1 <= t0 {
         return 0.0;
     }
@@ -213,23 +204,50 @@ fn fit(depths: &[f64], target: f64) -> f64 {
     if target <= 0.0 || blocked(1.0) <= 0.0 {
         return 1.0;
     }
-    if blocked(F_MAX) <= target {
-        return F_MAX;
+    // Blocked area grows with f.
+    bisect_log(blocked, target, (F_MIN, F_MAX))
+}
+
+/// The parameter interval `(t0, t1)` of `o + t d` inside the level's box (empty if `t1 <= t0`).
+pub(super) fn box_interval(level: &Level, origin: DVec3, o: DVec3, d: DVec3) -> (f64, f64) {
+    let size = DVec3::from(level.dims.map(|n| n as f64)) * level.cell;
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if o[a] < origin[a] || o[a] > origin[a] + size[a] {
+                return (0.0, 0.0);
+            }
+            continue;
+        }
+        let (near, far) = (
+            (origin[a] - o[a]) / d[a],
+            (origin[a] + size[a] - o[a]) / d[a],
+        );
+        t0 = t0.max(near.min(far));
+        t1 = t1.min(near.max(far));
     }
-    if blocked(F_MIN) >= target {
-        return F_MIN;
+    (t0, t1)
+}
+
+/// The `x` in `[lo, hi]` where the increasing `f` reaches `target`, by bisection on `ln x`
+/// (an end where `target` lies beyond it).
+pub(super) fn bisect_log(f: impl Fn(f64) -> f64, target: f64, (lo, hi): (f64, f64)) -> f64 {
+    if f(hi) <= target {
+        return hi;
     }
-    // Blocked area grows with f: bisect on ln f.
-    let (mut lo, mut hi) = (F_MIN.ln(), F_MAX.ln());
+    if f(lo) >= target {
+        return lo;
+    }
+    let (mut a, mut b) = (lo.ln(), hi.ln());
     for _ in 0..50 {
-        let mid = 0.5 * (lo + hi);
-        if blocked(mid.exp()) < target {
-            lo = mid;
+        let mid = 0.5 * (a + b);
+        if f(mid.exp()) < target {
+            a = mid;
         } else {
-            hi = mid;
+            b = mid;
         }
     }
-    (0.5 * (lo + hi)).exp()
+    (0.5 * (a + b)).exp()
 }
 
 /// The entries `[S_xx, S_yy, S_zz, S_xy, S_xz, S_yz, c]` whose `q(w)` (see

@@ -8,7 +8,8 @@ use crate::volume::Level;
 /// through, along each axis, the mean of what its four columns of two children let through,
 /// averaged over the three axes (`extinction_scale` turns density into extinction). A plain
 /// average would conserve optical mass but make distant trees too opaque: the mean of
-/// exp(-x) is more than exp of the mean. Albedo is the density-weighted average of each part;
+/// exp(-x) is more than exp of the mean. Albedo is the density-weighted average of each part,
+/// the leaf-normal moment the foliage-density-weighted average;
 /// gradients are recomputed on the coarser density.
 pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
     let dims = level.dims.map(|d| d.div_ceil(2));
@@ -44,6 +45,7 @@ pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
                         plain.map(|c| (c / n as f64) as f32)
                     };
                 }
+                out.leaves[o] = reduced_leaves(level, [x, y, z]);
             }
         }
     }
@@ -51,6 +53,31 @@ pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
         out.gradient[part] = sobel::gradient(&out.density[part], dims, out.cell);
     }
     out
+}
+
+/// The leaf-normal moment of the coarse cell `[x, y, z]`: its children's, weighted by their
+/// foliage density (the leaf area they stand for); the plain mean where none has foliage.
+fn reduced_leaves(level: &Level, [x, y, z]: [usize; 3]) -> [f32; 6] {
+    let (mut weighted, mut plain, mut mass, mut n) = ([0.0f64; 6], [0.0f64; 6], 0.0f64, 0);
+    for c in 0..8 {
+        let (cx, cy, cz) = (2 * x + (c & 1), 2 * y + ((c >> 1) & 1), 2 * z + (c >> 2));
+        if cx >= level.dims[0] || cy >= level.dims[1] || cz >= level.dims[2] {
+            continue;
+        }
+        let i = level.index(cx, cy, cz);
+        let d = f64::from(level.density[1][i]);
+        for (k, m) in level.leaves[i].iter().enumerate() {
+            weighted[k] += d * f64::from(*m);
+            plain[k] += f64::from(*m);
+        }
+        mass += d;
+        n += 1;
+    }
+    crate::volume::unit_moment(if mass > 0.0 {
+        weighted.map(|v| (v / mass) as f32)
+    } else {
+        plain.map(|v| (v / n.max(1) as f64) as f32)
+    })
 }
 
 /// The density of a cell of twice the size whose transmittance along each axis is the mean of

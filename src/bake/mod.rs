@@ -9,6 +9,7 @@ mod classify;
 mod filter;
 mod grid;
 mod scan;
+mod seen;
 pub mod sobel;
 mod tomography;
 
@@ -16,7 +17,9 @@ use rayon::prelude::*;
 use regex::Regex;
 
 use crate::import::Mesh;
-use crate::volume::{BakeParameters, DensityModel, Level, Texel, TexelInfo};
+use crate::volume::{
+    BakeParameters, DensityModel, ISOTROPIC_LEAVES, Level, Texel, TexelInfo, unit_moment,
+};
 pub use classify::MIN_CUT;
 pub use grid::Grid;
 use scan::{AxisScan, ScanModel};
@@ -155,6 +158,7 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     let mut level = Level::empty(grid.dims, grid.cell);
     level.density = density;
     level.albedo = albedo(&grid, &scans);
+    level.leaves = leaf_normals(&grid, &scans);
     for part in 0..2 {
         level.gradient[part] = sobel::gradient(&level.density[part], grid.dims, grid.cell);
     }
@@ -162,6 +166,17 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     let forms = calibrate::directional_forms(mesh, &levels, grid.origin, extinction_scale);
     for (level, s) in levels.iter_mut().zip(forms) {
         level.directional = s;
+    }
+    let sights = seen::fit_sight(
+        mesh,
+        &model.is_foliage,
+        &levels,
+        grid.origin,
+        extinction_scale,
+    );
+    for (level, s) in levels.iter_mut().zip(sights) {
+        level.wood_weight = s.wood_weight;
+        level.self_shadow = s.self_shadow;
     }
 
     let (lo, hi) = mesh.bounds().expect("fit_grid checked for triangles");
@@ -405,6 +420,28 @@ fn fit_gamma(grid: &Grid, density: &[Vec<f32>; 2], mesh_coverage: [f64; 3]) -> f
 }
 
 /// Mean colour of the surface crossings in each cell, per part, filled in where a part has none.
+/// Per cell, the foliage's leaf-normal moment `E[n n^T]` over the three axes' crossings, each
+/// weighted so the sum is by area (see `scan`); isotropic where no foliage was crossed.
+fn leaf_normals(grid: &Grid, scans: &[AxisScan]) -> Vec<[f32; 6]> {
+    cells(grid)
+        .map(|c| {
+            let (mut sum, mut weight) = ([0.0f64; 6], 0.0f64);
+            for (a, scan) in scans.iter().enumerate() {
+                let i = scan_index(grid, a, c);
+                for (s, m) in sum.iter_mut().zip(scan.leaf_sum[i]) {
+                    *s += f64::from(m);
+                }
+                weight += f64::from(scan.leaf_weight[i]);
+            }
+            if weight > 0.0 {
+                unit_moment(sum.map(|s| (s / weight) as f32))
+            } else {
+                ISOTROPIC_LEAVES
+            }
+        })
+        .collect()
+}
+
 fn albedo(grid: &Grid, scans: &[AxisScan]) -> [Vec<[f32; 3]>; 2] {
     [0, 1].map(|part| {
         let mut known = Vec::with_capacity(grid.cell_count());

@@ -3,6 +3,10 @@
 //!
 //! * the transmittance of every texture cell the bundle crosses, in both directions,
 //! * the surface colour met inside each texture cell (for the albedo),
+//! * the second moment of the foliage's surface normals inside each cell, each crossing
+//!   weighted by `1 / (|n_x| + |n_y| + |n_z|)`: a surface is crossed by the rays of axis `a` in
+//!   proportion to its area times `|n_a|`, so over the three axes the weights sum to the area,
+//!   whatever the orientation (the leaf-normal distribution the renderer shades foliage with),
 //! * optionally, the fine-scale solid occupancy along the ray (nonzero winding of closed parts)
 //!   and the fine cells a surface crosses.
 //!
@@ -72,6 +76,10 @@ pub struct AxisScan {
     /// Sum of linear RGB over the surface crossings inside the cell: wood `[0]`, foliage `[1]`.
     pub color_sum: [Vec<[f32; 3]>; 2],
     pub crossings: [Vec<u32>; 2],
+    /// Area-weighted sums of `n n^T` (`[xx, yy, zz, xy, xz, yz]`) over the foliage crossings
+    /// inside the cell, and of their weights.
+    pub leaf_sum: Vec<[f32; 6]>,
+    pub leaf_weight: Vec<f32>,
     /// Per column, rays that cross no surface at all (`[0]`) and no wood (`[1]`).
     pub misses: [Vec<u32>; 2],
     /// Fine-cell bits (`INSIDE_*`, `SURFACE_*`), `[column][ray][fine cell along the axis]`, with
@@ -88,6 +96,8 @@ struct Crossing {
     winding: i8,
     is_foliage: bool,
     rgb: [f32; 3],
+    /// The triangle's unit normal (either orientation: only `n n^T` is used).
+    normal: [f32; 3],
 }
 
 /// A column's results before they are gathered into the [`AxisScan`].
@@ -95,6 +105,8 @@ struct Column {
     sigma: [Vec<Option<f32>>; 2],
     color_sum: [Vec<[f32; 3]>; 2],
     crossings: [Vec<u32>; 2],
+    leaf_sum: Vec<[f32; 6]>,
+    leaf_weight: Vec<f32>,
     misses: [u32; 2],
     fine: Vec<u8>,
 }
@@ -121,6 +133,8 @@ pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> AxisScan {
         sigma: [Vec::new(), Vec::new()],
         color_sum: [Vec::new(), Vec::new()],
         crossings: [Vec::new(), Vec::new()],
+        leaf_sum: Vec::new(),
+        leaf_weight: Vec::new(),
         misses: [Vec::new(), Vec::new()],
         fine: Vec::new(),
     };
@@ -131,6 +145,8 @@ pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> AxisScan {
             scan.crossings[s].extend_from_slice(&c.crossings[s]);
             scan.misses[s].push(c.misses[s]);
         }
+        scan.leaf_sum.extend_from_slice(&c.leaf_sum);
+        scan.leaf_weight.extend_from_slice(&c.leaf_weight);
         scan.fine.extend_from_slice(&c.fine);
     }
     scan
@@ -195,6 +211,8 @@ fn scan_column(
     let mut misses = [0u32; 2];
     let mut color_sum = [vec![[0.0f32; 3]; cells], vec![[0.0f32; 3]; cells]];
     let mut crossings = [vec![0u32; cells], vec![0u32; cells]];
+    let mut leaf_sum = vec![[0.0f32; 6]; cells];
+    let mut leaf_weight = vec![0.0f32; cells];
     let mut fine = if occupancy {
         vec![0u8; k * k * fine_along]
     } else {
@@ -226,6 +244,15 @@ fn scan_column(
                 sum[c] += h.rgb[c];
             }
             crossings[part][l] += 1;
+            if h.is_foliage {
+                let [x, y, z] = h.normal;
+                let w = 1.0 / (x.abs() + y.abs() + z.abs());
+                let m = [x * x, y * y, z * z, x * y, x * z, y * z];
+                for (sum, m) in leaf_sum[l].iter_mut().zip(m) {
+                    *sum += w * m;
+                }
+                leaf_weight[l] += w;
+            }
         }
         if occupancy {
             mark_fine(hits, &mut fine[r * fine_along..(r + 1) * fine_along]);
@@ -240,6 +267,8 @@ fn scan_column(
         sigma,
         color_sum,
         crossings,
+        leaf_sum,
+        leaf_weight,
         misses,
         fine,
     }
@@ -386,6 +415,11 @@ fn rasterize(
         0
     };
     let is_foliage = model.is_foliage[t as usize];
+    let normal = (c[1] - c[0])
+        .cross(c[2] - c[0])
+        .normalize_or_zero()
+        .as_vec3()
+        .to_array();
     for j in j0.max(0)..=j1 {
         for i in i0.max(0)..=i1 {
             let p = [sample(i as usize), sample(j as usize)];
@@ -403,23 +437,30 @@ fn rasterize(
             let wf = w.map(|x| x as f32);
             let color = mesh.base_color(triangle, wf);
             let ray = (i as usize - first[0]) + k * (j as usize - first[1]);
-            let covered = match material.alpha_mode {
-                AlphaMode::Opaque => true,
-                AlphaMode::Mask { cutoff } => color.w >= cutoff,
-                AlphaMode::Blend => {
-                    let id = (((axis as u64) << 40) | ((i as u64) << 20)) | j as u64;
-                    color.w as f64 > rng::unit(rng::hash3(rng::purpose::BAKE_BLEND, id, t as u64))
-                }
-            };
-            if covered {
+            if alpha_covers(material.alpha_mode, color.w, axis, [i, j], t) {
                 rays[ray].push(Crossing {
                     t: depth,
                     triangle: t,
                     winding,
                     is_foliage,
                     rgb: [color.x, color.y, color.z],
+                    normal,
                 });
             }
+        }
+    }
+}
+
+/// Whether a crossing with alpha `alpha` counts: always for opaque materials, above the cutoff
+/// for masked ones, and with probability alpha for blended ones (a hash of the ray and the
+/// triangle, so the bake stays deterministic).
+fn alpha_covers(mode: AlphaMode, alpha: f32, axis: usize, [i, j]: [i64; 2], t: u32) -> bool {
+    match mode {
+        AlphaMode::Opaque => true,
+        AlphaMode::Mask { cutoff } => alpha >= cutoff,
+        AlphaMode::Blend => {
+            let id = (((axis as u64) << 40) | ((i as u64) << 20)) | j as u64;
+            alpha as f64 > rng::unit(rng::hash3(rng::purpose::BAKE_BLEND, id, t as u64))
         }
     }
 }

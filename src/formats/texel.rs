@@ -83,6 +83,11 @@ pub(crate) struct Header {
     pub(crate) channels: Vec<ChannelHeader>,
 }
 
+/// The oldest minor version `texel render` draws: its foliage is shaded from the leaf normals
+/// and shadows itself by the self-shadowing factors 1.2 adds, which older files lack (they
+/// are still read, by `inspect` for one).
+pub const RENDER_MINOR: u16 = 2;
+
 /// What minor version 1 appends to the header.
 #[derive(Clone, Debug, PartialEq, Encode, Decode, Default)]
 pub(crate) struct HeaderV1_1 {
@@ -96,7 +101,19 @@ pub(crate) struct HeaderV1_2 {
     /// Per level, finest first: the directional extinction form, `[S_xx, S_yy, S_zz, S_xy,
     /// S_xz, S_yz, c]`.
     pub(crate) directional: Vec<[f32; 7]>,
+    /// Per level, finest first: the self-shadowing factors at the angles of
+    /// [`crate::volume::SELF_SHADOW_ANGLES`].
+    pub(crate) self_shadow: Vec<[f32; 6]>,
+    /// Per level, finest first: the weight on the wood's extinction in choosing which part
+    /// scatters.
+    pub(crate) wood_weight: Vec<f32>,
 }
+
+/// Bounds of a wood weight (the bake's fit stays within 1/64 to 64).
+const WOOD_WEIGHT_RANGE: std::ops::RangeInclusive<f32> = (1.0 / 4096.0)..=4096.0;
+
+/// Largest self-shadowing factor (the bake's fit stays within 16).
+const SELF_SHADOW_MAX: f32 = 64.0;
 
 /// Largest magnitude of a directional form's entry (64^2: a factor of 64 along an axis).
 const DIRECTIONAL_MAX: f32 = 4096.0;
@@ -167,6 +184,26 @@ fn v1_channels(model: DensityModel) -> Vec<ChannelHeader> {
     ]
 }
 
+/// The channel 1.2 appends: the foliage's leaf-normal moment `E[n n^T]`, `[xx, yy, zz, xy, xz,
+/// yz]`, as F32. Optional for readers.
+const LEAVES: &str = "leaves_foliage";
+
+fn leaves_channel() -> ChannelHeader {
+    ChannelHeader {
+        name: LEAVES.to_string(),
+        components: 6,
+        encoding: Encoding::F32,
+        unit: "1".to_string(),
+    }
+}
+
+/// Every channel this version writes, in payload order.
+fn channels(model: DensityModel) -> Vec<ChannelHeader> {
+    let mut channels = v1_channels(model);
+    channels.push(leaves_channel());
+    channels
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum TexelError {
     #[error(transparent)]
@@ -234,7 +271,7 @@ fn parts(texel: &Texel) -> Parts {
                 cell: l.cell,
             })
             .collect(),
-        channels: v1_channels(info.density_model),
+        channels: channels(info.density_model),
     };
     let extension = HeaderV1_1 {
         wood_pattern: info.parameters.wood_pattern.clone(),
@@ -251,6 +288,8 @@ fn parts(texel: &Texel) -> Parts {
     };
     let extension2 = HeaderV1_2 {
         directional: texel.levels.iter().map(|l| l.directional).collect(),
+        self_shadow: texel.levels.iter().map(|l| l.self_shadow).collect(),
+        wood_weight: texel.levels.iter().map(|l| l.wood_weight).collect(),
     };
     let mut payload = Vec::new();
     for level in &texel.levels {
@@ -273,6 +312,7 @@ fn parts(texel: &Texel) -> Parts {
                     .flat_map(|&v| unorm16(v)),
             );
         }
+        payload.extend(level.leaves.iter().flatten().flat_map(|m| m.to_le_bytes()));
     }
     Parts {
         header,
@@ -298,6 +338,28 @@ pub(crate) fn forge(texel: &Texel, edit: impl FnOnce(&mut Parts)) -> Vec<u8> {
     let mut p = parts(texel);
     edit(&mut p);
     assemble(&p).unwrap_or_default()
+}
+
+/// `texel` as a 1.1 writer wrote it: without the 1.2 header fields and the `leaves_foliage`
+/// channel. For tests of how older files are read and refused.
+#[cfg(feature = "dev-tools")]
+pub fn encode_v1_1(texel: &Texel) -> Vec<u8> {
+    let mut p = parts(texel);
+    p.header.channels.retain(|c| c.name != LEAVES);
+    let mut payload = Vec::new();
+    let mut at = 0;
+    for level in &texel.levels {
+        let n = level.cell_count();
+        let v1 = n * v1_channels(texel.info.density_model)
+            .iter()
+            .map(|c| c.components as usize * c.encoding.size())
+            .sum::<usize>();
+        payload.extend_from_slice(&p.payload[at..at + v1]);
+        at += v1 + n * 6 * 4;
+    }
+    let mut header = bincode::encode_to_vec(&p.header, header_config()).unwrap_or_default();
+    header.extend(bincode::encode_to_vec(&p.extension, header_config()).unwrap_or_default());
+    container::write(MAGIC, MAJOR, 1, &header, &payload).unwrap_or_default()
 }
 
 /// Decodes the header of a file of minor version `minor`: the v1.0 fields, then those of
@@ -332,15 +394,25 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
         )));
     }
     validate(&header, &extension, extension2.as_ref())?;
-    // Files before 1.2 are isotropic: every factor 1.
-    let directional = extension2.map_or_else(
-        || vec![crate::volume::ISOTROPIC; header.levels.len()],
-        |e| e.directional,
+    // Files before 1.2 are isotropic and shadow themselves as independent media: every
+    // factor 1.
+    let n = header.levels.len();
+    let sight = extension2.map_or_else(
+        || Sight {
+            directional: vec![crate::volume::ISOTROPIC; n],
+            self_shadow: vec![crate::volume::NO_SELF_SHADOW; n],
+            wood_weight: vec![1.0; n],
+        },
+        |e| Sight {
+            directional: e.directional,
+            self_shadow: e.self_shadow,
+            wood_weight: e.wood_weight,
+        },
     );
     Ok(Decoded {
         header,
         extension,
-        directional,
+        sight,
     })
 }
 
@@ -348,7 +420,14 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
 struct Decoded {
     header: Header,
     extension: HeaderV1_1,
+    sight: Sight,
+}
+
+/// The per-level fields of 1.2 (neutral values for older files).
+struct Sight {
     directional: Vec<[f32; 7]>,
+    self_shadow: Vec<[f32; 6]>,
+    wood_weight: Vec<f32>,
 }
 
 /// The header of `.texel` bytes (checked, payload not decompressed): for tools that need a
@@ -408,7 +487,7 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
     let Decoded {
         header,
         extension,
-        directional,
+        sight,
     } = decode_header(opened.header, opened.minor)?;
     let bad = |m: String| TexelError::Header(m);
 
@@ -431,26 +510,12 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
             opened.raw_len()
         )));
     }
-    let find = |name: &str| header.channels.iter().position(|ch| ch.name == name);
-    let required = v1_channels(header.density_model);
-    let mut slots = Vec::new();
-    for want in &required {
-        let i = find(&want.name)
-            .ok_or_else(|| bad(format!("required channel {} is missing", want.name)))?;
-        let have = &header.channels[i];
-        if (have.components, have.encoding) != (want.components, want.encoding) {
-            return Err(bad(format!(
-                "channel {} has {} x {:?}, expected {} x {:?}",
-                want.name, have.components, have.encoding, want.components, want.encoding
-            )));
-        }
-        slots.push(i);
-    }
+    let (slots, leaves_slot) = channel_slots(&header)?;
     let payload = opened.payload()?;
 
     let mut levels = Vec::with_capacity(header.levels.len());
     let mut at = 0usize;
-    for (lh, &directional) in header.levels.iter().zip(&directional) {
+    for (index, lh) in header.levels.iter().enumerate() {
         let dims = lh.dims.map(|d| d as usize);
         let n: usize = dims.iter().product();
         let mut offsets = Vec::with_capacity(header.channels.len());
@@ -464,26 +529,22 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
                 n * header.channels[i].components as usize * header.channels[i].encoding.size();
             &payload[offsets[i]..offsets[i] + len]
         };
-        let f32s = |b: &[u8]| -> Vec<f32> {
-            b.chunks_exact(4)
-                .map(|x| f32::from_le_bytes([x[0], x[1], x[2], x[3]]))
-                .collect()
-        };
-        let vec3 = |v: Vec<f32>| -> Vec<[f32; 3]> {
-            v.chunks_exact(3).map(|x| [x[0], x[1], x[2]]).collect()
-        };
-        let unorm = |b: &[u8]| -> Vec<f32> {
-            b.chunks_exact(2)
-                .map(|x| u16::from_le_bytes([x[0], x[1]]) as f32 / 65535.0)
-                .collect()
-        };
         let level = Level {
             dims,
             cell: lh.cell,
             density: [f32s(bytes_of(0)), f32s(bytes_of(1))],
             gradient: [vec3(f32s(bytes_of(2))), vec3(f32s(bytes_of(3)))],
             albedo: [vec3(unorm(bytes_of(4))), vec3(unorm(bytes_of(5)))],
-            directional,
+            leaves: match leaves_slot {
+                Some(slot) => f32s(bytes_of(slot))
+                    .chunks_exact(6)
+                    .map(|m| std::array::from_fn(|k| m[k]))
+                    .collect(),
+                None => vec![crate::volume::ISOTROPIC_LEAVES; n],
+            },
+            directional: sight.directional[index],
+            self_shadow: sight.self_shadow[index],
+            wood_weight: sight.wood_weight[index],
         };
         check_values(&level)?;
         levels.push(level);
@@ -494,7 +555,56 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
     })
 }
 
-/// Densities must be finite and non-negative, gradients finite.
+/// Where each channel the reader uses sits in the header's table: the six required ones (in
+/// [`v1_channels`] order), each checked for its layout, and (1.2) the optional leaf moments.
+fn channel_slots(header: &Header) -> Result<(Vec<usize>, Option<usize>), TexelError> {
+    let find = |name: &str| header.channels.iter().position(|ch| ch.name == name);
+    let layout = |i: usize, want: &ChannelHeader| {
+        let have = &header.channels[i];
+        if (have.components, have.encoding) == (want.components, want.encoding) {
+            Ok(i)
+        } else {
+            Err(TexelError::Header(format!(
+                "channel {} has {} x {:?}, expected {} x {:?}",
+                want.name, have.components, have.encoding, want.components, want.encoding
+            )))
+        }
+    };
+    let mut slots = Vec::new();
+    for want in &v1_channels(header.density_model) {
+        let i = find(&want.name).ok_or_else(|| {
+            TexelError::Header(format!("required channel {} is missing", want.name))
+        })?;
+        slots.push(layout(i, want)?);
+    }
+    let leaves = match find(LEAVES) {
+        Some(i) => {
+            slots.push(layout(i, &leaves_channel())?);
+            Some(slots.len() - 1)
+        }
+        None => None,
+    };
+    Ok((slots, leaves))
+}
+
+fn f32s(b: &[u8]) -> Vec<f32> {
+    b.chunks_exact(4)
+        .map(|x| f32::from_le_bytes([x[0], x[1], x[2], x[3]]))
+        .collect()
+}
+
+fn vec3(v: Vec<f32>) -> Vec<[f32; 3]> {
+    v.chunks_exact(3).map(|x| [x[0], x[1], x[2]]).collect()
+}
+
+fn unorm(b: &[u8]) -> Vec<f32> {
+    b.chunks_exact(2)
+        .map(|x| u16::from_le_bytes([x[0], x[1]]) as f32 / 65535.0)
+        .collect()
+}
+
+/// Densities must be finite and non-negative, gradients finite, leaf-normal moments those of
+/// unit vectors.
 fn check_values(level: &Level) -> Result<(), TexelError> {
     let dims = level.dims;
     for part in 0..2 {
@@ -516,6 +626,16 @@ fn check_values(level: &Level) -> Result<(), TexelError> {
             )));
         }
     }
+    // A second moment of unit vectors: diagonal within [0, 1], the rest within [-1, 1].
+    let moment = |m: &[f32; 6]| {
+        m[..3].iter().all(|v| (0.0..=1.0).contains(v))
+            && m[3..].iter().all(|v| (-1.0..=1.0).contains(v))
+    };
+    if let Some(m) = level.leaves.iter().find(|m| !moment(m)) {
+        return Err(TexelError::Payload(format!(
+            "leaf-normal moment {m:?} in a level of {dims:?} cells is not one of unit normals"
+        )));
+    }
     Ok(())
 }
 
@@ -524,7 +644,21 @@ fn validate(
     extension: &HeaderV1_1,
     extension2: Option<&HeaderV1_2>,
 ) -> Result<(), TexelError> {
-    let bad = |m: String| Err(TexelError::Header(m));
+    validate_geometry(h)?;
+    validate_channels(h)?;
+    validate_materials(h, extension)?;
+    if let Some(e) = extension2 {
+        validate_directional(h, e)?;
+    }
+    Ok(())
+}
+
+fn bad(m: String) -> Result<(), TexelError> {
+    Err(TexelError::Header(m))
+}
+
+/// Bounds, extinction scale and the mip chain (checks 3 to 6 of `formats/texel.md`).
+fn validate_geometry(h: &Header) -> Result<(), TexelError> {
     let finite3 = |v: &[f64; 3]| v.iter().all(|c| c.is_finite());
     if !(finite3(&h.model_min) && finite3(&h.model_max) && finite3(&h.origin)) {
         return bad("bounds are not finite".into());
@@ -569,6 +703,11 @@ fn validate(
     if h.levels.last().is_some_and(|l| l.dims != [1, 1, 1]) {
         return bad("the mip chain does not end in a single cell".into());
     }
+    Ok(())
+}
+
+/// The channel table: how many, their components, no name twice.
+fn validate_channels(h: &Header) -> Result<(), TexelError> {
     if h.channels.len() > MAX_CHANNELS {
         return bad(format!(
             "{} channels (at most {MAX_CHANNELS})",
@@ -590,6 +729,11 @@ fn validate(
             return bad(format!("channel {} appears twice", ch.name));
         }
     }
+    Ok(())
+}
+
+/// Triangle counts and (1.1) the material table that must add up to them.
+fn validate_materials(h: &Header, extension: &HeaderV1_1) -> Result<(), TexelError> {
     if h.foliage_triangles > h.triangles {
         return bad(format!(
             "{} foliage triangles of {} in all",
@@ -620,24 +764,59 @@ fn validate(
             ));
         }
     }
-    if let Some(e) = extension2 {
-        if e.directional.len() != h.levels.len() {
+    Ok(())
+}
+
+/// (1.2) One finite, bounded directional form, one row of self-shadowing factors and one wood
+/// weight per level.
+fn validate_directional(h: &Header, e: &HeaderV1_2) -> Result<(), TexelError> {
+    if e.directional.len() != h.levels.len() {
+        return bad(format!(
+            "{} directional forms for {} levels",
+            e.directional.len(),
+            h.levels.len()
+        ));
+    }
+    for (i, s) in e.directional.iter().enumerate() {
+        if !s
+            .iter()
+            .all(|v| v.is_finite() && v.abs() <= DIRECTIONAL_MAX)
+        {
             return bad(format!(
-                "{} directional forms for {} levels",
-                e.directional.len(),
-                h.levels.len()
+                "level {i}'s directional form {s:?} has an entry that is not a number within -4096 to 4096"
             ));
         }
-        for (i, s) in e.directional.iter().enumerate() {
-            if !s
-                .iter()
-                .all(|v| v.is_finite() && v.abs() <= DIRECTIONAL_MAX)
-            {
-                return bad(format!(
-                    "level {i}'s directional form {s:?} has an entry that is not a number within -4096 to 4096"
-                ));
-            }
+    }
+    if e.self_shadow.len() != h.levels.len() {
+        return bad(format!(
+            "{} self-shadowing rows for {} levels",
+            e.self_shadow.len(),
+            h.levels.len()
+        ));
+    }
+    for (i, s) in e.self_shadow.iter().enumerate() {
+        if !s.iter().all(|v| (0.0..=SELF_SHADOW_MAX).contains(v)) {
+            return bad(format!(
+                "level {i}'s self-shadowing factors {s:?} have one that is not a number within 0 to 64"
+            ));
         }
+    }
+    if e.wood_weight.len() != h.levels.len() {
+        return bad(format!(
+            "{} wood weights for {} levels",
+            e.wood_weight.len(),
+            h.levels.len()
+        ));
+    }
+    if let Some((i, w)) = e
+        .wood_weight
+        .iter()
+        .enumerate()
+        .find(|(_, w)| !WOOD_WEIGHT_RANGE.contains(*w))
+    {
+        return bad(format!(
+            "level {i}'s wood weight {w} is not a number within 1/4096 to 4096"
+        ));
     }
     Ok(())
 }
@@ -848,14 +1027,17 @@ pub(crate) mod tests {
         assert_eq!(back, isotropic(t));
     }
 
-    /// Bytes of the v1.2 header field for `t`'s levels.
+    /// Bytes of the v1.2 header fields for `t`'s levels: three lengths, 7 + 6 + 1 f32 per
+    /// level.
     fn directional_bytes(t: &Texel) -> usize {
-        8 + 7 * 4 * t.levels.len()
+        3 * 8 + (7 + 6 + 1) * 4 * t.levels.len()
     }
 
     fn isotropic(mut t: Texel) -> Texel {
         for l in &mut t.levels {
             l.directional = crate::volume::ISOTROPIC;
+            l.self_shadow = crate::volume::NO_SELF_SHADOW;
+            l.wood_weight = 1.0;
         }
         t
     }

@@ -9,7 +9,7 @@ use crate::hex::hex;
 use crate::provenance::SourceFile;
 use glam::Vec3;
 
-use crate::volume::{BakeParameters, DensityModel, MaterialPart, Texel};
+use crate::volume::{BakeParameters, DensityModel, Level, MaterialPart, Texel};
 
 #[derive(Serialize, Debug)]
 pub struct Summary {
@@ -56,6 +56,11 @@ pub struct LevelSummary {
     /// Its factor along x, y and z, and the least and greatest over the sphere (sampled).
     pub factor_axes: [f32; 3],
     pub factor_range: [f32; 2],
+    /// The factors on the tree's own extinction along a foliage sample's shadow ray, at the
+    /// angles of [`crate::volume::SELF_SHADOW_ANGLES`] between eye and sun.
+    pub self_shadow: [f32; 6],
+    /// The weight on the wood's extinction in choosing which part scatters.
+    pub wood_weight: f32,
 }
 
 #[derive(Serialize, Debug)]
@@ -96,9 +101,10 @@ fn stats(
     }
 }
 
-pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
-    let info = &texel.info;
-    let l0 = &texel.levels[0];
+/// Level 0's channels: densities and extinction, gradient magnitudes, and each part's albedo
+/// over the cells that hold that part.
+fn channel_stats(texel: &Texel) -> Vec<ChannelStats> {
+    let (info, l0) = (&texel.info, &texel.levels[0]);
     let (density_unit, gradient_unit) = match info.density_model {
         DensityModel::Occupancy => ("1", "1/m"),
         DensityModel::Transmittance => ("1/m", "1/m^2"),
@@ -144,6 +150,33 @@ pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
             ));
         }
     }
+    channels
+}
+
+/// A level's grid and its directional form, with the factors it gives along the axes and
+/// their range over the sphere.
+fn level_summary(l: &Level) -> LevelSummary {
+    let factors: Vec<f32> = crate::geom::sphere_lattice(500)
+        .map(|w| l.directional_factor(w))
+        .collect();
+    LevelSummary {
+        dims: l.dims,
+        cell: l.cell,
+        directional: l.directional,
+        self_shadow: l.self_shadow,
+        wood_weight: l.wood_weight,
+        factor_axes: [Vec3::X, Vec3::Y, Vec3::Z].map(|w| l.directional_factor(w)),
+        factor_range: [
+            factors.iter().copied().fold(f32::INFINITY, f32::min),
+            factors.iter().copied().fold(0.0, f32::max),
+        ],
+    }
+}
+
+pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
+    let info = &texel.info;
+    let l0 = &texel.levels[0];
+    let channels = channel_stats(texel);
     let n = l0.cell_count() as f64;
     let filled = (0..l0.cell_count())
         .filter(|&i| l0.density[0][i] + l0.density[1][i] > 0.0)
@@ -169,25 +202,7 @@ pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
         model_min: info.model_min,
         model_max: info.model_max,
         origin: info.origin,
-        levels: texel
-            .levels
-            .iter()
-            .map(|l| {
-                let factors: Vec<f32> = crate::geom::sphere_lattice(500)
-                    .map(|w| l.directional_factor(w))
-                    .collect();
-                LevelSummary {
-                    dims: l.dims,
-                    cell: l.cell,
-                    directional: l.directional,
-                    factor_axes: [Vec3::X, Vec3::Y, Vec3::Z].map(|w| l.directional_factor(w)),
-                    factor_range: [
-                        factors.iter().copied().fold(f32::INFINITY, f32::min),
-                        factors.iter().copied().fold(0.0, f32::max),
-                    ],
-                }
-            })
-            .collect(),
+        levels: texel.levels.iter().map(level_summary).collect(),
         channels,
         fill_ratio: filled as f64 / n,
         filled_without_normal: without_normal as f64 / filled.max(1) as f64,
@@ -254,6 +269,24 @@ fn write_grid(o: &mut String, s: &Summary) {
         "directional   extinction factor along x/y/z (range), per level: {}",
         factors.join("  ")
     );
+    let angles: Vec<String> = crate::volume::SELF_SHADOW_ANGLES
+        .iter()
+        .map(|a| format!("{a}"))
+        .collect();
+    let _ = writeln!(
+        o,
+        "self-shadow   own-extinction factor of a leaf's shadow ray at {} degrees from the eye, per level:",
+        angles.join("/")
+    );
+    for (n, l) in s.levels.iter().enumerate() {
+        let row: Vec<String> = l.self_shadow.iter().map(|k| format!("{k:.2}")).collect();
+        let _ = writeln!(
+            o,
+            "              level {n}: {}   (wood shown x {:.2})",
+            row.join(" "),
+            l.wood_weight
+        );
+    }
     let f = |v: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
     let _ = writeln!(
         o,

@@ -301,7 +301,7 @@ fn texel_channel_files(base: &Texel, add: &mut Add) {
     add(
         "sixty-five-channels",
         forge(&|p| {
-            for k in 0..59 {
+            for k in p.header.channels.len()..65 {
                 let mut ch = p.header.channels[0].clone();
                 ch.name = format!("extra_{k}");
                 p.header.channels.push(ch);
@@ -344,7 +344,9 @@ fn texel_material_files(base: &Texel, add: &mut Add) {
     );
 }
 
-/// The directional forms (1.2): one per level, every entry a number within +-4096.
+/// The directional forms, self-shadowing rows and wood weights (1.2): one per level, every
+/// form entry a number within +-4096, every factor within 0 to 64, every weight within 1/4096
+/// to 4096.
 fn texel_directional_files(base: &Texel, add: &mut Add) {
     let forge = |edit: &dyn Fn(&mut texel::Parts)| texel::forge(base, edit);
     add(
@@ -363,6 +365,35 @@ fn texel_directional_files(base: &Texel, add: &mut Add) {
         "directional-huge",
         forge(&|p| p.extension2.directional[0][3] = 5000.0),
         "within -4096 to 4096",
+    );
+    add(
+        "self-shadow-count",
+        forge(&|p| {
+            p.extension2.self_shadow.push([1.0; 6]);
+        }),
+        "self-shadowing rows for",
+    );
+    add(
+        "self-shadow-negative",
+        forge(&|p| p.extension2.self_shadow[2][1] = -0.5),
+        "not a number within 0 to 64",
+    );
+    add(
+        "wood-weight-count",
+        forge(&|p| {
+            p.extension2.wood_weight.pop();
+        }),
+        "wood weights for",
+    );
+    add(
+        "wood-weight-zero",
+        forge(&|p| p.extension2.wood_weight[1] = 0.0),
+        "wood weight 0 is not a number within 1/4096 to 4096",
+    );
+    add(
+        "self-shadow-nan",
+        forge(&|p| p.extension2.self_shadow[0][4] = f32::NAN),
+        "self-shadowing factors",
     );
 }
 
@@ -414,6 +445,26 @@ fn texel_level_value_files(base: &Texel, add: &mut Add) {
         "gradient-infinite",
         edited(&|t| t.levels[0].gradient[1][2][1] = f32::INFINITY),
         "a gradient in a level of [3, 2, 2] cells is not finite",
+    );
+    add(
+        "leaves-out-of-range",
+        edited(&|t| t.levels[0].leaves[1][0] = 1.5),
+        "leaf-normal moment [1.5,",
+    );
+    add(
+        "leaves-nan",
+        edited(&|t| t.levels[1].leaves[0][4] = f32::NAN),
+        "is not one of unit normals",
+    );
+    add(
+        "leaves-channel-layout",
+        // The same bytes per cell (24) as 12 x Unorm16: only the layout check can refuse it.
+        texel::forge(base, |p| {
+            let ch = &mut p.header.channels[6];
+            ch.components = 12;
+            ch.encoding = texel::Encoding::Unorm16;
+        }),
+        "channel leaves_foliage has 12 x Unorm16",
     );
 }
 

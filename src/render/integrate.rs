@@ -5,9 +5,15 @@
 //! ```
 //!
 //! sigma is the sum of the extinctions of every instance containing the point (equation 4);
-//! colour and normal are sigma-weighted averages over them; S is the paper's equation (3) with
-//! I(t) the sun's light times the transmittance towards the sun through every texture and the
-//! terrain (equation 2). Normalised this way an opaque volume shades exactly like a surface.
+//! S is the paper's equation (3) with I(t) the sun's light times the transmittance towards the
+//! sun through every texture and the terrain (equation 2). At each sample one part of the mix
+//! scatters, chosen by its share of the extinction (the wood's weighted by the level's wood
+//! weight, so a coarse cell shows its trunk no more than the mesh does): wood as a surface on
+//! its density gradient, its shadow ray leaving the surface layer, so that an opaque volume
+//! shades exactly like a surface; foliage as a cloud of two-sided leaves (`render::leaves`),
+//! its shadow ray leaving the leaf and crossing the leaf's own tree with the level's
+//! self-shadowing factor (`bake::seen`: clumping, and the hot spot where the sun is behind the
+//! eye).
 //!
 //! How this relates to the paper's equation (1): there the brightness is a sum along the ray,
 //! in steps, of the source times the density times the attenuation exp(-gamma x the density
@@ -84,11 +90,17 @@ impl Active {
     /// `footprint` metres: the mip level whose cells match it, and the ray in that level's cells.
     fn new(scene: &Scene, i: u32, ray: &Ray, exit: f32, footprint: f32, lod_bias: f32) -> Active {
         let inst: &Instance = scene.instances.get(i);
-        let look = &scene.looks[inst.look as usize];
-        let texel = &scene.texels[look.texel];
+        let texel = &scene.texels[scene.looks[inst.look as usize].texel];
         let cell0 = texel.levels[0].cell as f32;
         let wanted = (footprint / inst.scale / cell0).max(1.0).log2() + lod_bias;
         let level = (wanted.max(0.0) as usize).min(texel.levels.len() - 1);
+        Active::at_level(scene, i, ray, exit, level)
+    }
+
+    /// Instance `i` as `ray` meets it, read at mip level `level`.
+    fn at_level(scene: &Scene, i: u32, ray: &Ray, exit: f32, level: usize) -> Active {
+        let inst: &Instance = scene.instances.get(i);
+        let texel = &scene.texels[scene.looks[inst.look as usize].texel];
         let cell = texel.levels[level].cell as f32;
         let origin = texel.origin().as_vec3();
         let dir = inst.dir_to_model(ray.dir);
@@ -172,8 +184,22 @@ impl<'a> Walk<'a> {
     }
 }
 
-/// Transmittance from `origin` along `dir` up to `t_max` through every texture and the
-/// terrain. `footprint` (m) picks the texture level.
+/// A tree a foliage sample lies in, as its shadow ray must cross it: at the sample's level,
+/// its extinction times the level's self-shadowing factor (`Level::self_shadow`).
+#[derive(Clone, Copy, Default)]
+pub struct OwnTree {
+    pub instance: u32,
+    pub level: usize,
+    pub factor: f32,
+}
+
+/// At most this many trees containing one sample get their self-shadowing; further ones (a
+/// pile of coincident boxes) are crossed as any other tree.
+const MAX_OWN: usize = 8;
+
+/// Transmittance along `ray` (from its origin, unit direction) up to `t_max` through every texture and the
+/// terrain. `footprint` (m) picks the texture level; the trees in `own` are crossed as
+/// [`OwnTree`] says.
 ///
 /// Optical depth is a sum over the instances the ray crosses, and a sum does not care about
 /// order: so unlike a view ray, a shadow ray needs no front-to-back walk. It visits the
@@ -181,14 +207,13 @@ impl<'a> Walk<'a> {
 /// depth so far already puts the transmittance below the cut-off.
 pub fn transmittance(
     scene: &Scene,
-    origin: Vec3,
-    dir: Vec3,
+    ray: Ray,
     t_max: f32,
     footprint: f32,
     key: u64,
     march: &March,
+    own: &[OwnTree],
 ) -> f32 {
-    let ray = Ray { origin, dir };
     if let Some(g) = &scene.ground
         && g.occluded(&ray, t_max)
     {
@@ -199,7 +224,11 @@ pub fn transmittance(
     let mut depth = 0.0f32;
     scene.instances.visit(&ray, t_max, |i, _, _| {
         let (enter, exit) = scene.instances.interval(i, &ray, t_max)?;
-        let a = Active::new(scene, i, &ray, exit, footprint, lod_bias);
+        let (a, factor) = match own.iter().find(|o| o.instance == i) {
+            Some(o) => (Active::at_level(scene, i, &ray, exit, o.level), o.factor),
+            None => (Active::new(scene, i, &ray, exit, footprint, lod_bias), 1.0),
+        };
+        let sigma_scale = a.sigma_scale * factor;
         let look = &scene.looks[scene.instances.get(i).look as usize];
         let level = &scene.texels[look.texel].levels[a.level];
         let foliage = look.foliage;
@@ -215,7 +244,7 @@ pub fn transmittance(
             };
             let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
             let d = level.density_at(a.c0 + a.dc * ts);
-            depth += a.sigma_scale * (d[0] + foliage * d[1]) * (end - t);
+            depth += sigma_scale * (d[0] + foliage * d[1]) * (end - t);
             if depth > opaque {
                 // Stops the traversal: nothing further can make the light visible.
                 return Some(0.0);
@@ -246,7 +275,8 @@ fn segment_end(walk: &Walk, t: f32, t_max: f32, step: f32, key: u64) -> (f32, f3
 }
 
 /// Radiance along the ray from the eye (the renderer frame's origin) in direction `dir`;
-/// `spread` is the angle a pixel subtends, `key` seeds the ray's random draws.
+/// `spread` is the angle the sample's share of its pixel subtends (the pixel's over the square
+/// root of the samples per pixel), `key` seeds the ray's random draws.
 pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) -> Radiance {
     let ray = Ray {
         origin: Vec3::ZERO,
@@ -265,7 +295,6 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     let mut transmittance = 1.0f32;
     let mut t = 0.0f32;
     let mut segment = 0u64;
-    let sun = scene.sun;
     SURFACES.with_borrow_mut(|s| s.clear());
     while let Some(start) = walk.advance(t, t_max) {
         t = start;
@@ -283,47 +312,27 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
             .iter()
             .map(|a| a.step)
             .fold(f32::INFINITY, f32::min);
-        let Mix {
-            sigma,
-            albedo,
-            gradient,
-            densest,
-        } = mix(scene, &walk.active, ts);
+        let m = mix(scene, &walk.active, ts);
+        let sigma = m.sigma();
         let length = end - t;
         t = end;
         if sigma <= 0.0 {
             continue;
         }
-        let albedo = albedo / sigma;
-        let normal = (-gradient).try_normalize();
+        let albedo = (m.albedo_wood + m.albedo_foliage) / sigma;
+        let normal = (-m.gradient).try_normalize();
         let opacity = 1.0 - (-sigma * length).exp();
         let share = transmittance * opacity;
-        // The shadow ray leaves from one layer (a cell, or the segment if longer) towards the
-        // sun: the sample stands for the surface layer it lies in, which must not shadow
-        // itself (an opaque volume would otherwise shade as Lommel-Seeliger's law, half as
-        // bright as a surface lit head-on).
-        let p = ray.dir * ts + sun.direction * cell_here.max(length);
-
-        let lit = if !scene.shadows {
-            sun_radiance(scene)
-        } else {
-            roulette(
-                share,
-                march,
-                rng::hash3(key, segment, purpose::SEGMENT_ROULETTE),
-                &mut out.shadow_rays,
-                || {
-                    sun_light(
-                        scene,
-                        p,
-                        t * spread,
-                        rng::hash3(key, segment, purpose::SEGMENT_LIGHT),
-                        march,
-                    )
-                },
-            )
+        let sample = Sample {
+            mix: &m,
+            dir,
+            ts,
+            footprint: t * spread,
+            layer: cell_here.max(length),
+            share,
+            key: (key, segment),
         };
-        let source = shade(scene, albedo, normal, lit, -dir);
+        let source = scatter(scene, &walk.active, &sample, march, &mut out.shadow_rays);
         out.rgb += source * share;
         transmittance *= 1.0 - opacity;
         SURFACES.with_borrow_mut(|s| {
@@ -332,7 +341,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
                 distance: ts,
                 normal: normal.unwrap_or(Vec3::ZERO),
                 albedo,
-                species: densest.1 as f32 + 1.0,
+                species: m.densest.1 as f32 + 1.0,
             })
         });
         if transmittance < march.cutoff {
@@ -345,26 +354,127 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     out
 }
 
-/// What the instances containing a sample say, sigma-weighted: their total extinction, their
-/// albedo and gradient weighted by it, and the densest one's look.
+/// A view-ray sample as [`scatter`] needs it.
+struct Sample<'a> {
+    mix: &'a Mix,
+    dir: Vec3,
+    /// Where along the ray (from the eye, unit direction `dir`).
+    ts: f32,
+    /// The footprint (m) shadow rays of other trees are read at.
+    footprint: f32,
+    /// The thickness of the layer the sample stands for: a cell, or the segment if longer.
+    layer: f32,
+    /// Its share of the pixel (transmittance before it x its opacity), for the roulette.
+    share: f32,
+    /// The ray's key and the segment's index, which key the sample's draws.
+    key: (u64, u64),
+}
+
+/// The light a sample sends towards the eye. One part of the mixture scatters it, chosen by
+/// its share of the extinction, the wood's weighted by its level's wood weight (a coarse cell
+/// shows its trunk only as much as the mesh does, not wherever it mixes it with foliage): the
+/// wood as a surface on the wood's density gradient, the foliage as a cloud of leaves
+/// (`render::leaves`); each with its own shadow ray, counted in `shadow_rays`.
+fn scatter(
+    scene: &Scene,
+    active: &[Active],
+    s: &Sample,
+    march: &March,
+    shadow_rays: &mut u32,
+) -> Vec3 {
+    let (m, dir, sun) = (s.mix, s.dir, scene.sun);
+    let (key, segment) = s.key;
+    let shown = m.wood_shown + m.foliage;
+    let part = rng::unit(rng::hash3(key, segment, purpose::SEGMENT_PART)) as f32 * shown;
+    let foliage_scatters = part >= m.wood_shown;
+    let mut own = [OwnTree::default(); MAX_OWN];
+    let (p, own) = if foliage_scatters {
+        // A leaf's shadow ray leaves the leaf itself, through its own tree as the level's
+        // self-shadowing says (clumping, and the hot spot where the sun is behind the eye).
+        let cos_g = (-dir).dot(sun.direction);
+        let mut n = 0;
+        for a in active.iter().take(MAX_OWN) {
+            let inst = scene.instances.get(a.instance);
+            let texel = &scene.texels[scene.looks[inst.look as usize].texel];
+            own[n] = OwnTree {
+                instance: a.instance,
+                level: a.level,
+                factor: texel.levels[a.level].self_shadow_at(cos_g),
+            };
+            n += 1;
+        }
+        (dir * s.ts, &own[..n])
+    } else {
+        // Wood is a solid: its shadow ray leaves from one layer towards the sun, so that the
+        // surface layer the sample stands for does not shadow itself (an opaque volume would
+        // otherwise shade as Lommel-Seeliger's law, half as bright as a surface lit head-on).
+        (dir * s.ts + sun.direction * s.layer, &own[..0])
+    };
+    let lit = if !scene.shadows {
+        sun_radiance(scene)
+    } else {
+        roulette(
+            s.share,
+            march,
+            rng::hash3(key, segment, purpose::SEGMENT_ROULETTE),
+            shadow_rays,
+            || {
+                let key = rng::hash3(key, segment, purpose::SEGMENT_LIGHT);
+                sun_light(scene, p, s.footprint, key, march, own)
+            },
+        )
+    };
+    if foliage_scatters {
+        let leaf_key = rng::hash3(key, segment, purpose::SEGMENT_LEAF);
+        let u = [rng::unit(leaf_key), rng::unit(rng::mix64(leaf_key))].map(|x| x as f32);
+        let n = super::leaves::visible_normal(m.leaves.map(|v| v / m.foliage), -dir, u);
+        shade(scene, m.albedo_foliage / m.foliage, Some(n), lit, -dir)
+    } else {
+        let normal = (-m.gradient_wood).try_normalize();
+        shade(scene, m.albedo_wood / m.wood, normal, lit, -dir)
+    }
+}
+
+/// What the instances containing a sample say: their extinction by part, each part's albedo
+/// weighted by its extinction, the gradients (the whole's, for the surface it reports, and the
+/// wood's, which shades the wood), the foliage's leaf-normal moment weighted by its extinction,
+/// and the densest instance's look.
 struct Mix {
-    sigma: f32,
-    albedo: Vec3,
+    wood: f32,
+    foliage: f32,
+    /// The wood's extinction times each level's wood weight: how much of it shows.
+    wood_shown: f32,
+    albedo_wood: Vec3,
+    albedo_foliage: Vec3,
     gradient: Vec3,
+    gradient_wood: Vec3,
+    leaves: [f32; 6],
     densest: (f32, u16),
+}
+
+impl Mix {
+    fn sigma(&self) -> f32 {
+        self.wood + self.foliage
+    }
 }
 
 fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
     let mut m = Mix {
-        sigma: 0.0,
-        albedo: Vec3::ZERO,
+        wood: 0.0,
+        foliage: 0.0,
+        wood_shown: 0.0,
+        albedo_wood: Vec3::ZERO,
+        albedo_foliage: Vec3::ZERO,
         gradient: Vec3::ZERO,
+        gradient_wood: Vec3::ZERO,
+        leaves: [0.0; 6],
         densest: (0.0, 0),
     };
     for a in active {
         let inst = scene.instances.get(a.instance);
         let look = &scene.looks[inst.look as usize];
-        let f = scene.texels[look.texel].levels[a.level].fetch(a.c0 + a.dc * ts);
+        let level = &scene.texels[look.texel].levels[a.level];
+        let f = level.fetch(a.c0 + a.dc * ts);
         let (wood, foliage) = (
             a.sigma_scale * f.density[0],
             a.sigma_scale * look.foliage * f.density[1],
@@ -373,16 +483,39 @@ fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
         if s <= 0.0 {
             continue;
         }
-        m.sigma += s;
-        m.albedo += f.albedo[0] * wood + look.foliage_albedo * foliage;
+        m.wood += wood;
+        m.wood_shown += wood * level.wood_weight;
+        m.foliage += foliage;
+        m.albedo_wood += f.albedo[0] * wood;
+        m.albedo_foliage += look.foliage_albedo * foliage;
         // Gradients are linear in density; per metre of the frame they shrink with scale.
-        m.gradient += inst.dir_to_world(f.gradient[0] + f.gradient[1] * look.foliage)
-            * (a.sigma_scale / inst.scale);
+        let per_metre = a.sigma_scale / inst.scale;
+        m.gradient += inst.dir_to_world(f.gradient[0] + f.gradient[1] * look.foliage) * per_metre;
+        m.gradient_wood += inst.dir_to_world(f.gradient[0]) * per_metre;
+        // The moment turns with the instance: M' = R M R^T, R a turn about +Y.
+        let turned = turn_moment(f.leaves, inst.cos, inst.sin);
+        for (sum, v) in m.leaves.iter_mut().zip(turned) {
+            *sum += v * foliage;
+        }
         if s > m.densest.0 {
             m.densest = (s, inst.look);
         }
     }
     m
+}
+
+/// The leaf-normal moment `[xx, yy, zz, xy, xz, yz]` of model space in the renderer's frame,
+/// for an instance turned about +Y (`dir_to_world`: x' = c x + s z, z' = -s x + c z).
+pub(super) fn turn_moment(m: [f32; 6], c: f32, s: f32) -> [f32; 6] {
+    let [xx, yy, zz, xy, xz, yz] = m;
+    [
+        c * c * xx + 2.0 * c * s * xz + s * s * zz,
+        yy,
+        s * s * xx - 2.0 * c * s * xz + c * c * zz,
+        c * xy + s * yz,
+        (c * c - s * s) * xz + c * s * (zz - xx),
+        -s * xy + c * yz,
+    ]
 }
 
 /// The end of a view ray: its surface (where the trees' opacity reaches half of what the ray
@@ -465,6 +598,7 @@ fn light_ground(
                     hit.t * l.spread,
                     rng::hash3(l.key, 0, purpose::GROUND_LIGHT),
                     l.march,
+                    &[],
                 )
             },
         )
@@ -520,15 +654,18 @@ fn roulette(
 }
 
 /// I(t): the sun's radiance scale times the transmittance towards it.
-fn sun_light(scene: &Scene, p: Vec3, footprint: f32, key: u64, march: &March) -> f32 {
-    let t = transmittance(
-        scene,
-        p,
-        scene.sun.direction,
-        f32::INFINITY,
-        footprint,
-        key,
-        march,
-    );
+fn sun_light(
+    scene: &Scene,
+    p: Vec3,
+    footprint: f32,
+    key: u64,
+    march: &March,
+    own: &[OwnTree],
+) -> f32 {
+    let ray = Ray {
+        origin: p,
+        dir: scene.sun.direction,
+    };
+    let t = transmittance(scene, ray, f32::INFINITY, footprint, key, march, own);
     sun_radiance(scene) * t
 }

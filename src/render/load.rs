@@ -122,6 +122,17 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
             .map_err(|e| stale(path, e, "re-run texel place"))?;
         let t = texel::decode_with(&bytes, &request.limits)
             .map_err(|e| file_error(path, Named(file.clone(), Box::new(e))))?;
+        let minor = container::preamble(&bytes).map_or(0, |p| p.minor);
+        if minor < texel::RENDER_MINOR {
+            return Err(LoadError::Mismatch {
+                file: file.clone(),
+                message: format!(
+                    "texel 1.{minor} was baked before the renderer's foliage model (texel 1.{}: \
+                     leaf normals, self-shadowing); re-bake it with texel bake",
+                    texel::RENDER_MINOR
+                ),
+            });
+        }
         texels.push(t);
         texel_paths.push(file.clone());
         loaded.insert(file.clone(), texels.len() - 1);

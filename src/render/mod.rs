@@ -10,6 +10,7 @@ pub mod camera;
 pub mod film;
 pub mod instances;
 pub mod integrate;
+pub mod leaves;
 pub mod load;
 pub mod mesh;
 pub mod scene;
@@ -80,8 +81,11 @@ pub fn render(
         .step_by(TILE as usize)
         .flat_map(|ty| (x0..x1).step_by(TILE as usize).map(move |tx| (tx, ty)))
         .collect();
-    let spread = camera.pixel_angle() as f32;
     let strata = (settings.spp as f64).sqrt().ceil() as u32;
+    // Each sample stands for its stratum of the pixel, not the whole pixel: its footprint,
+    // which picks the mip level, is the stratum's. More samples then read finer levels, and
+    // the image converges to the finest level's, not to the pixel-sized level's bias.
+    let spread = camera.pixel_angle() as f32 / strata as f32;
     let done: Vec<Vec<(u32, u32, Pixel)>> = tiles
         .par_iter()
         .map(|&(tx, ty)| {

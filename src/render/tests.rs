@@ -6,8 +6,10 @@ use super::integrate::{March, radiance, transmittance};
 use super::scene::{Lighting, Look, Placed, Scene, Shading, Sun};
 use super::{Camera, RenderSettings, render};
 use crate::bake::{mip_chain, sobel};
+use crate::geom::Ray;
 use crate::import::{Material, Mesh, Triangle};
-use crate::volume::{BakeParameters, DensityModel, Level, Texel, TexelInfo};
+use crate::rng;
+use crate::volume::{BakeParameters, DensityModel, ISOTROPIC_LEAVES, Level, Texel, TexelInfo};
 
 /// A texture of `dims` cells of edge `cell` from `origin`, holding wood of uniform extinction
 /// `sigma` (1/m) and colour `albedo`.
@@ -121,8 +123,10 @@ fn a_homogeneous_texel_seen_along_an_axis_transmits_exp_minus_sigma_length() {
         );
         let t = transmittance(
             &scene,
-            Vec3::new(0.0, 0.0, 5.0),
-            Vec3::NEG_Z,
+            Ray {
+                origin: Vec3::new(0.0, 0.0, 5.0),
+                dir: Vec3::NEG_Z,
+            },
             f32::INFINITY,
             0.0,
             7,
@@ -130,6 +134,7 @@ fn a_homogeneous_texel_seen_along_an_axis_transmits_exp_minus_sigma_length() {
                 cutoff: 0.0,
                 ..March::default()
             },
+            &[],
         );
         let want = (-sigma * 2.0).exp();
         assert!(
@@ -192,12 +197,15 @@ fn directional_extinction_scales_optical_depth_by_the_form() {
         let dir = Vec3::NEG_Z;
         let t = transmittance(
             &scene,
-            Vec3::new(0.0, 0.0, 5.0),
-            dir,
+            Ray {
+                origin: Vec3::new(0.0, 0.0, 5.0),
+                dir,
+            },
             f32::INFINITY,
             0.0,
             7,
             &march,
+            &[],
         );
         let want = (-sigma * 2.0 * k).exp();
         assert!(
@@ -551,8 +559,10 @@ fn ten_thousand_boxes_overlapping_one_point_add_up() {
     );
     let t = transmittance(
         &scene,
-        Vec3::new(0.0, 0.0, 5.0),
-        Vec3::NEG_Z,
+        Ray {
+            origin: Vec3::new(0.0, 0.0, 5.0),
+            dir: Vec3::NEG_Z,
+        },
         f32::INFINITY,
         0.0,
         1,
@@ -560,6 +570,7 @@ fn ten_thousand_boxes_overlapping_one_point_add_up() {
             cutoff: 0.0,
             ..March::default()
         },
+        &[],
     );
     let want = (-sigma * 10_000.0 * 2.0).exp();
     assert!((t - want).abs() < 1e-3, "{t} vs {want}");
@@ -588,8 +599,10 @@ fn adjacent_boxes_leave_no_crack() {
     for x in [0.3f32, 1.0] {
         let t = transmittance(
             &scene,
-            Vec3::new(x, 0.0, 0.0),
-            Vec3::NEG_Z,
+            Ray {
+                origin: Vec3::new(x, 0.0, 0.0),
+                dir: Vec3::NEG_Z,
+            },
             f32::INFINITY,
             0.0,
             1,
@@ -597,6 +610,7 @@ fn adjacent_boxes_leave_no_crack() {
                 cutoff: 0.0,
                 ..March::default()
             },
+            &[],
         );
         let want = (-0.5f32 * 4.0).exp();
         assert!((t - want).abs() < 1e-4, "x {x}: {t} vs {want}");
@@ -724,4 +738,153 @@ fn the_image_is_the_same_for_any_thread_count_and_a_crop_equals_its_region() {
             assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "pixel {x},{y}");
         }
     }
+}
+
+/// A leaf-normal moment turns with its instance: the moment of a turned normal is the turned
+/// moment.
+#[test]
+fn leaf_moments_turn_with_the_instance() {
+    let n = Vec3::new(0.3, -0.5, 0.81).normalize();
+    let moment = |n: Vec3| {
+        [
+            n.x * n.x,
+            n.y * n.y,
+            n.z * n.z,
+            n.x * n.y,
+            n.x * n.z,
+            n.y * n.z,
+        ]
+    };
+    for angle in [0.0f32, 0.7, 2.0, -2.9] {
+        let (sin, cos) = angle.sin_cos();
+        let inst = super::instances::Instance {
+            look: 0,
+            model: 0,
+            position: Vec3::ZERO,
+            cos,
+            sin,
+            scale: 1.0,
+        };
+        let want = moment(inst.dir_to_world(n));
+        let got = super::integrate::turn_moment(moment(n), cos, sin);
+        for k in 0..6 {
+            assert!(
+                (got[k] - want[k]).abs() < 1e-6,
+                "{angle}: {got:?} vs {want:?}"
+            );
+        }
+    }
+}
+
+/// A dense slab of foliage (4 m x 4 m x 1 m, facing +z) whose every cell holds leaves of the
+/// moment `leaves` and self-shadowing `factor`, seen head-on from +z, lit by `sun` (irradiance
+/// pi, so that a white Lambertian surface facing it has radiance 1); foliage albedo 0.5.
+fn foliage_slab(leaves: [f32; 6], factor: f32, sun: Vec3, shadows: bool) -> Scene {
+    let mut texel = uniform_texel(
+        [16, 16, 4],
+        0.25,
+        DVec3::new(-2.0, -2.0, -1.0),
+        40.0,
+        [0.5; 3],
+    );
+    for l in &mut texel.levels {
+        l.density.swap(0, 1);
+        l.gradient.swap(0, 1);
+        l.albedo.swap(0, 1);
+        l.leaves = vec![leaves; l.cell_count()];
+        l.self_shadow = [factor; 6];
+    }
+    let mut scene = Scene::new(
+        DVec3::new(0.0, 0.0, 10.0),
+        vec![texel],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        None,
+        Lighting {
+            sun: Sun {
+                direction: sun.normalize(),
+                irradiance: std::f32::consts::PI,
+            },
+            shading: PLAIN,
+            sky: None,
+        },
+    );
+    scene.shadows = shadows;
+    scene
+}
+
+/// The mean radiance (green) over many rays into the middle of `scene`'s slab.
+fn slab_radiance(scene: &Scene) -> f64 {
+    let n = 4000u64;
+    let sum: f64 = (0..n)
+        .map(|k| {
+            let u = rng::unit(rng::hash3(k, 1, 0x51ab)) as f32 - 0.5;
+            let v = rng::unit(rng::hash3(k, 2, 0x51ab)) as f32 - 0.5;
+            let dir = Vec3::new(u * 0.1, v * 0.1, -1.0).normalize();
+            f64::from(radiance(scene, dir, 0.0, k, &March::default()).rgb[1])
+        })
+        .sum();
+    sum / n as f64
+}
+
+/// Foliage shades as a cloud of two-sided, opaque, diffuse leaves, against the closed forms of
+/// the area scattering phase function (Shultis and Myneni 1988), unshadowed so that only the
+/// phase function shows: leaves facing every way, at several angles between eye and sun;
+/// leaves all facing the eye (horizontal leaves seen from above) lit head-on, at 60 degrees,
+/// from the side and from behind (through the leaf: dark).
+#[test]
+fn foliage_shades_as_a_cloud_of_leaves_in_closed_form() {
+    let albedo = 0.5;
+    for g in [0.0f32, 0.6, 1.2, 2.0] {
+        let scene = foliage_slab(
+            ISOTROPIC_LEAVES,
+            1.0,
+            Vec3::new(g.sin(), 0.0, g.cos()),
+            false,
+        );
+        let g = f64::from(g);
+        let want = albedo
+            * (2.0 / (3.0 * std::f64::consts::PI) * (g.sin() - g * g.cos()) + 2.0 / 3.0 * g.cos());
+        let got = slab_radiance(&scene);
+        assert!(
+            (got - want).abs() < 0.01,
+            "isotropic, angle {g}: {got} vs {want}"
+        );
+    }
+    // Leaves all facing the eye (normals +-z: horizontal leaves seen from above, the slab's +z
+    // standing for up): lit head-on, the full Lambert response; at 60 degrees, its cosine;
+    // from the side, nothing; from behind (through the leaf: opaque), nothing.
+    let facing = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+    let lit = |sun: Vec3| slab_radiance(&foliage_slab(facing, 1.0, sun, false));
+    let front = lit(Vec3::Z);
+    assert!(
+        (front - albedo).abs() < 0.01,
+        "facing, lit head-on: {front}"
+    );
+    let (s60, c60) = 60f32.to_radians().sin_cos();
+    let slanted = lit(Vec3::new(0.0, s60, c60));
+    assert!(
+        (slanted - 0.5 * albedo).abs() < 0.01,
+        "facing, lit at 60 degrees: {slanted}"
+    );
+    let side = lit(Vec3::X);
+    assert!(side < 0.05 * albedo, "facing, lit from the side: {side}");
+    let behind = lit(Vec3::new(0.0, 0.3, -1.0));
+    assert!(behind < 0.01 * albedo, "facing, lit from behind: {behind}");
+}
+
+/// A leaf's shadow ray crosses its own tree with the level's self-shadowing factor: 0 lets a
+/// dense slab light every leaf the eye sees, as if unshadowed (the hot spot); 1 is the
+/// independent medium, darker.
+#[test]
+fn the_self_shadowing_factor_scales_a_leafs_own_shadow() {
+    let sun = Vec3::new(0.5, 0.0, 1.0);
+    let unshadowed = slab_radiance(&foliage_slab(ISOTROPIC_LEAVES, 1.0, sun, false));
+    let none = slab_radiance(&foliage_slab(ISOTROPIC_LEAVES, 0.0, sun, true));
+    let independent = slab_radiance(&foliage_slab(ISOTROPIC_LEAVES, 1.0, sun, true));
+    assert!((none - unshadowed).abs() < 1e-9, "{none} vs {unshadowed}");
+    assert!(
+        independent < 0.7 * unshadowed,
+        "{independent} vs {unshadowed}"
+    );
 }
