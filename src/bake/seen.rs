@@ -39,17 +39,20 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use super::calibrate::{bisect_log, box_interval};
 use crate::geom::{Ray, barycentric_point, offset_origin};
 use crate::import::Mesh;
 use crate::mesh_tracer::MeshTracer;
 use crate::rng;
-use super::calibrate::{bisect_log, box_interval};
 use crate::volume::{Level, SELF_SHADOW_ANGLES};
 
 /// The largest factor a fit may give.
 const K_MAX: f64 = 16.0;
 /// March samples per cell of the level marched.
 const SAMPLES_PER_CELL: f64 = 2.0;
+/// Spacing of the view rays, in level-0 cells (1.5 left the broadleaf's coarse levels 2 % brighter
+/// near the hot spot: the fit's own noise).
+const RAY_SPACING: f64 = 1.0;
 /// Points drawn per view ray from its foliage samples.
 const POINTS_PER_RAY: usize = 2;
 
@@ -87,44 +90,65 @@ struct Seen {
     lit: f64,
 }
 
-/// The mesh's answer for rays along `-v` from `rays`, sun towards `l`.
-fn mesh_seen(
+/// A foliage surface a view ray meets first in the mesh: its normal facing the eye, and the
+/// origin a ray leaving it may start from (off the surface by its error bound, on the eye's
+/// side, which is the side a lit leaf is lit from), and the ray's key.
+struct LeafHit {
+    normal: Vec3,
+    point: Vec3,
+    error: Vec3,
+    key: u64,
+}
+
+/// The foliage the rays along `-v` from `rays` see first in the mesh.
+fn mesh_leaves(
     tracer: &MeshTracer,
-    mesh: &Mesh,
-    is_foliage: &[bool],
+    (corners, is_foliage): (&[[Vec3; 3]], &[bool]),
     rays: &[(DVec3, f64)],
     v: DVec3,
-    l: DVec3,
-    pair: u64,
-) -> Seen {
-    let corners = mesh.corners();
+    view: u64,
+) -> Vec<LeafHit> {
     rays.par_iter()
         .enumerate()
-        .map(|(i, &(o, t_end))| {
-            let key = rng::hash3(pair, i as u64, rng::purpose::CALIBRATION);
+        .filter_map(|(i, &(o, t_end))| {
+            let key = rng::hash3(view, i as u64, rng::purpose::CALIBRATION);
             let ray = Ray {
                 origin: o.as_vec3(),
                 dir: -v.as_vec3(),
             };
-            let Some((t, hit)) = tracer.nearest(&ray, 0.0, t_end as f32, key) else {
-                return Seen::default();
-            };
+            let (t, hit) = tracer.nearest(&ray, 0.0, t_end as f32, key)?;
             if !is_foliage[t as usize] {
-                return Seen::default();
+                return None;
             }
             let c = corners[t as usize];
             let n = (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero();
-            let n = if n.dot(v.as_vec3()) < 0.0 { -n } else { n };
-            let response = f64::from(n.dot(l.as_vec3()).max(0.0));
+            let (point, error) = barycentric_point(c, hit.w);
+            Some(LeafHit {
+                normal: if n.dot(v.as_vec3()) < 0.0 { -n } else { n },
+                point,
+                error,
+                key,
+            })
+        })
+        .collect()
+}
+
+/// What the sun towards `l` does to `leaves`: their summed Lambert response, and the part of it
+/// an alpha-tested shadow ray finds unblocked.
+fn mesh_seen(tracer: &MeshTracer, leaves: &[LeafHit], l: DVec3) -> Seen {
+    let l = l.as_vec3();
+    leaves
+        .par_iter()
+        .map(|leaf| {
+            let response = f64::from(leaf.normal.dot(l).max(0.0));
             if response == 0.0 {
                 return Seen::default();
             }
-            let (p, error) = barycentric_point(c, hit.w);
             let shadow = Ray {
-                origin: offset_origin(p, error, n, l.as_vec3()),
-                dir: l.as_vec3(),
+                origin: offset_origin(leaf.point, leaf.error, leaf.normal, l),
+                dir: l,
             };
-            let hidden = tracer.occluded(&shadow, 0.0, f32::INFINITY, rng::mix64(key));
+            let hidden = tracer.occluded(&shadow, 0.0, f32::INFINITY, rng::mix64(leaf.key));
             Seen {
                 response,
                 lit: if hidden { 0.0 } else { response },
@@ -216,16 +240,16 @@ fn depth_from(level: &Level, origin: DVec3, p: DVec3, d: DVec3, factor: f64) -> 
         * step
 }
 
-/// The level's answer for one view ray: `POINTS_PER_RAY` points drawn from its samples'
-/// weights times the chance that the foliage scatters there (wood weighted by `wood`), each
-/// as (weight, optical depth towards `l`), in extinction units.
+/// The level's foliage samples of one view ray that carry its shadows: `POINTS_PER_RAY`
+/// points drawn from the samples' weights times the chance that the foliage scatters there
+/// (wood weighted by `wood`), each as (weight, point).
 fn texture_points(
     level: &Level,
     (origin, scale, wood): (DVec3, f64, f64),
     o: DVec3,
-    (v, l): (DVec3, DVec3),
+    v: DVec3,
     key: u64,
-) -> Vec<(f64, f64)> {
+) -> Vec<(f64, DVec3)> {
     let weights: Vec<(DVec3, f64)> = march_view(level, origin, scale, o, v)
         .iter()
         .map(|s| (s.p, s.weight * foliage_chance(s.sigma, wood)))
@@ -234,7 +258,6 @@ fn texture_points(
     if total <= 0.0 {
         return Vec::new();
     }
-    let sun_factor = scale * f64::from(level.directional_factor(l.as_vec3()));
     (0..POINTS_PER_RAY)
         .map(|j| {
             let u = (j as f64 + rng::unit(rng::hash3(key, j as u64, 0))) / POINTS_PER_RAY as f64;
@@ -246,10 +269,7 @@ fn texture_points(
                     acc >= u * total
                 })
                 .map_or(weights[weights.len() - 1].0, |w| w.0);
-            (
-                total / POINTS_PER_RAY as f64,
-                depth_from(level, origin, p, l, sun_factor),
-            )
+            (total / POINTS_PER_RAY as f64, p)
         })
         .collect()
 }
@@ -311,8 +331,8 @@ pub fn fit_sight(
     let tracer = MeshTracer::new(mesh);
     let coarsest = levels.last().expect("a mip chain has levels");
     let hi = origin + DVec3::from(coarsest.dims.map(|d| d as f64)) * coarsest.cell;
-    let rays =
-        |v: DVec3, pair: u64| super::calibrate::lattice(origin, hi, -v, levels[0].cell, pair);
+    let spacing = levels[0].cell * RAY_SPACING;
+    let rays = |v: DVec3, pair: u64| super::calibrate::lattice(origin, hi, -v, spacing, pair);
     let weights = wood_weights(
         &tracer,
         is_foliage,
@@ -323,7 +343,7 @@ pub fn fit_sight(
     let factors = if is_foliage.iter().any(|&f| f) {
         self_shadow_factors(
             &tracer,
-            (mesh, is_foliage),
+            (&mesh.corners(), is_foliage),
             levels,
             (origin, extinction_scale),
             &weights,
@@ -375,14 +395,16 @@ fn wood_weights(
             }
         }
         for (n, level) in levels.iter().enumerate() {
-            for &(o, _) in &rays {
-                for sample in march_view(level, origin, scale, o, v) {
-                    pure[n].1 += sample.weight;
-                    match sample.sigma {
-                        [w, 0.0] if w > 0.0 => pure[n].0 += sample.weight,
-                        [0.0, _] => {}
-                        sigma => mixed[n].push((sample.weight, sigma)),
-                    }
+            let samples: Vec<ViewSample> = rays
+                .par_iter()
+                .flat_map_iter(|&(o, _)| march_view(level, origin, scale, o, v))
+                .collect();
+            for sample in samples {
+                pure[n].1 += sample.weight;
+                match sample.sigma {
+                    [w, 0.0] if w > 0.0 => pure[n].0 += sample.weight,
+                    [0.0, _] => {}
+                    sigma => mixed[n].push((sample.weight, sigma)),
                 }
             }
         }
@@ -407,47 +429,65 @@ fn wood_weights(
 }
 
 /// Every level's self-shadowing factors, one per angle of [`SELF_SHADOW_ANGLES`], with the
-/// levels' wood weights deciding which samples are foliage.
+/// levels' wood weights deciding which samples are foliage. Each view's rays, the leaves they
+/// meet in the mesh and the points drawn in each level serve every angle.
 fn self_shadow_factors(
     tracer: &MeshTracer,
-    (mesh, is_foliage): (&Mesh, &[bool]),
+    mesh: (&[[Vec3; 3]], &[bool]),
     levels: &[Level],
     (origin, scale): (DVec3, f64),
     wood_weights: &[f64],
     rays: &dyn Fn(DVec3, u64) -> Vec<(DVec3, f64)>,
 ) -> Vec<[f32; SELF_SHADOW_ANGLES.len()]> {
-    let views = views();
-    let mut factors = vec![[1.0; SELF_SHADOW_ANGLES.len()]; levels.len()];
-    for (a, &angle) in SELF_SHADOW_ANGLES.iter().enumerate() {
-        let mut seen = Seen::default();
-        let mut points: Vec<Vec<(f64, f64)>> = vec![Vec::new(); levels.len()];
-        for (k, &v) in views.iter().enumerate() {
-            let l = turned(v, f64::from(angle), k % 2 == 1);
-            let pair = (a * views.len() + k) as u64;
-            let rays = rays(v, pair);
-            let s = mesh_seen(tracer, mesh, is_foliage, &rays, v, l, pair);
-            seen.response += s.response;
-            seen.lit += s.lit;
-            for (n, level) in levels.iter().enumerate() {
-                let found: Vec<(f64, f64)> = rays
-                    .par_iter()
+    let angles = SELF_SHADOW_ANGLES.len();
+    let mut seen = vec![Seen::default(); angles];
+    // Per angle and level: (weight, optical depth towards the sun) of the drawn points.
+    let mut points: Vec<Vec<Vec<(f64, f64)>>> = vec![vec![Vec::new(); levels.len()]; angles];
+    for (k, &v) in views().iter().enumerate() {
+        let rays = rays(v, k as u64);
+        let leaves = mesh_leaves(tracer, mesh, &rays, v, k as u64);
+        let drawn: Vec<Vec<(f64, DVec3)>> = levels
+            .iter()
+            .enumerate()
+            .map(|(n, level)| {
+                rays.par_iter()
                     .enumerate()
                     .flat_map_iter(|(i, &(o, _))| {
-                        let key = rng::hash3(pair, i as u64, rng::purpose::SELF_SHADOW);
-                        let at = (origin, scale, wood_weights[n]);
-                        texture_points(level, at, o, (v, l), key)
+                        let key = rng::hash3(k as u64, i as u64, rng::purpose::SELF_SHADOW);
+                        texture_points(level, (origin, scale, wood_weights[n]), o, v, key)
                     })
+                    .collect()
+            })
+            .collect();
+        // With the sun straight behind the leaves the eye sees (180 degrees), none is lit and
+        // nothing depends on the factor: that angle is not measured.
+        for (a, &angle) in SELF_SHADOW_ANGLES
+            .iter()
+            .enumerate()
+            .filter(|(_, g)| **g < 180.0)
+        {
+            let l = turned(v, f64::from(angle), k % 2 == 1);
+            let s = mesh_seen(tracer, &leaves, l);
+            seen[a].response += s.response;
+            seen[a].lit += s.lit;
+            for (n, level) in levels.iter().enumerate() {
+                let factor = scale * f64::from(level.directional_factor(l.as_vec3()));
+                let depths: Vec<(f64, f64)> = drawn[n]
+                    .par_iter()
+                    .map(|&(w, p)| (w, depth_from(level, origin, p, l, factor)))
                     .collect();
-                points[n].extend(found);
+                points[a][n].extend(depths);
             }
         }
-        // Where the eye sees no lit foliage (the sun straight behind the leaves), nothing
-        // depends on the factor: it keeps the previous angle's, so that it is smooth.
-        for (n, p) in points.iter().enumerate() {
-            factors[n][a] = if seen.response > 0.0 {
-                fit(p, seen.lit / seen.response) as f32
+    }
+    let mut factors = vec![[1.0; SELF_SHADOW_ANGLES.len()]; levels.len()];
+    for a in 0..angles {
+        // Where the eye sees no lit foliage, the factor keeps the previous angle's (smooth).
+        for (n, f) in factors.iter_mut().enumerate() {
+            f[a] = if seen[a].response > 0.0 {
+                fit(&points[a][n], seen[a].lit / seen[a].response) as f32
             } else if a > 0 {
-                factors[n][a - 1]
+                f[a - 1]
             } else {
                 1.0
             };

@@ -105,7 +105,7 @@ pub fn render(
         film.z[i] = p.z;
         film.normal[i] = p.radiance.normal;
         film.albedo[i] = p.radiance.albedo;
-        film.canopy[i] = p.radiance.canopy;
+        film.canopy[i] = p.canopy;
         film.species[i] = p.radiance.species;
         film.samples[i] = p.samples;
         film.shadow_rays[i] = p.shadow_rays;
@@ -116,8 +116,10 @@ pub fn render(
 struct Pixel {
     rgba: [f32; 4],
     z: f32,
-    /// The AOVs of the pixel's first sample.
+    /// The AOVs of the pixel's first sample (normal, albedo and species do not average).
     radiance: Radiance,
+    /// The trees' opacity, the mean over the samples: a matte of the canopy.
+    canopy: f32,
     /// Work for the whole pixel, all its samples.
     samples: f32,
     shadow_rays: f32,
@@ -140,6 +142,7 @@ fn pixel(
     );
     let (mut rgba, mut first, mut z) = ([0.0f32; 4], None, f32::INFINITY);
     let (mut samples, mut shadow_rays) = (0u64, 0u64);
+    let mut canopy = 0.0f32;
     for s in 0..settings.spp {
         let key = rng::hash3(pixel_key, s as u64, 0);
         let (sx, sy) = ((s % strata) as f64, ((s / strata) % strata) as f64);
@@ -155,6 +158,7 @@ fn pixel(
             rgba[c] += r.rgb[c];
         }
         rgba[3] += 1.0 - r.transmittance;
+        canopy += r.canopy;
         samples += u64::from(r.samples);
         shadow_rays += u64::from(r.shadow_rays);
         if r.distance.is_finite() {
@@ -171,6 +175,7 @@ fn pixel(
         rgba,
         z,
         radiance: first.unwrap_or_default(),
+        canopy: (canopy / n).clamp(0.0, 1.0),
         samples: samples as f32,
         shadow_rays: shadow_rays as f32,
     }

@@ -888,3 +888,41 @@ fn the_self_shadowing_factor_scales_a_leafs_own_shadow() {
         "{independent} vs {unshadowed}"
     );
 }
+
+/// The canopy layer is a matte: the trees' opacity averaged over the pixel's samples, so a
+/// pixel half over an opaque slab's edge holds about a half (not the first sample's 0 or 1).
+#[test]
+fn the_canopy_layer_averages_the_samples() {
+    let texel = uniform_texel(
+        [16, 16, 4],
+        0.25,
+        DVec3::new(-2.0, -2.0, -1.0),
+        200.0,
+        [0.5; 3],
+    );
+    let scene = Scene::new(
+        DVec3::new(2.0, 0.0, 10.0),
+        vec![texel],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        None,
+        Lighting {
+            sun: HEAD_ON,
+            shading: PLAIN,
+            sky: None,
+        },
+    );
+    let camera = Camera::look_at(scene.origin, DVec3::new(2.0, 0.0, 0.0), 5.0, 1, 1).unwrap();
+    let film = render(
+        &scene,
+        &camera,
+        &RenderSettings {
+            spp: 64,
+            ..RenderSettings::default()
+        },
+        &|_| {},
+    );
+    let (canopy, alpha) = (film.canopy[0], film.rgba[0][3]);
+    assert!((canopy - 0.5).abs() < 0.1, "{canopy}");
+    assert!((canopy - alpha).abs() < 1e-6, "{canopy} vs {alpha}");
+}
