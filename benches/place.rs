@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use texel_forest::formats::instances::{self, SpeciesRecord};
+use texel_forest::formats::instances;
 use texel_forest::place::{self, PlaceSettings};
 use texel_forest::procedural::{builder, terrain};
 use texel_forest::provenance::SourceFile;
@@ -44,18 +44,13 @@ fn main() {
         .species
         .iter()
         .zip(&heights)
-        .map(|(s, &h)| SpeciesRecord {
-            name: s.name.clone(),
-            texel: s.texel.to_string_lossy().into_owned(),
-            texel_sha256: [0; 32],
-            leafless_texel: None,
-            leafless_sha256: None,
-            model_height: h,
-            spacing: s.spacing,
-            height_min: s.height.min,
-            height_max: s.height.max,
-            traits: s.traits,
-            seasons: s.seasons.clone(),
+        .map(|(s, &h)| {
+            let texel = SourceFile {
+                path: s.texel.to_string_lossy().into_owned(),
+                sha256: [0; 32],
+                bytes: 0,
+            };
+            place::inputs::species_record(s, texel, None, h)
         })
         .collect();
     let n = forest.instances.len();

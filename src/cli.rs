@@ -34,13 +34,22 @@ fn number(s: &str) -> Result<f64, String> {
 }
 
 fn numbers<const N: usize>(s: &str, what: &str) -> Result<[f64; N], String> {
+    list(s, what, number)
+}
+
+/// Exactly `N` comma-separated values, each read by `parse` (`what` names the whole).
+fn list<T: Copy + Default, const N: usize>(
+    s: &str,
+    what: &str,
+    parse: impl Fn(&str) -> Result<T, String>,
+) -> Result<[T; N], String> {
     let parts: Vec<&str> = s.split(',').collect();
     if parts.len() != N {
         return Err(format!("expected {what}"));
     }
-    let mut out = [0.0; N];
+    let mut out = [T::default(); N];
     for (o, p) in out.iter_mut().zip(parts) {
-        *o = number(p).map_err(|e| format!("{e}; expected {what}"))?;
+        *o = parse(p).map_err(|e| format!("{e}; expected {what}"))?;
     }
     Ok(out)
 }
@@ -97,17 +106,16 @@ pub fn region(s: &str) -> Result<[f64; 4], String> {
 
 /// `X0,Y0,X1,Y1` in pixels, whole and non-negative, a non-empty rectangle.
 pub fn crop(s: &str) -> Result<[u32; 4], String> {
-    let what = "four whole pixel numbers X0,Y0,X1,Y1";
-    let parts: Vec<&str> = s.split(',').collect();
-    let values: Vec<u32> = parts
-        .iter()
-        .map(|p| p.trim().parse::<u32>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("expected {what}"))?;
-    match *values.as_slice() {
-        [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok([x0, y0, x1, y1]),
-        [_, _, _, _] => Err("needs X0 < X1 and Y0 < Y1".into()),
-        _ => Err(format!("expected {what}")),
+    let whole = |p: &str| {
+        p.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("{p:?} is not a whole number of pixels"))
+    };
+    let [x0, y0, x1, y1] = list(s, "four whole pixel numbers X0,Y0,X1,Y1", whole)?;
+    if x0 < x1 && y0 < y1 {
+        Ok([x0, y0, x1, y1])
+    } else {
+        Err("needs X0 < X1 and Y0 < Y1".into())
     }
 }
 
@@ -504,6 +512,13 @@ pub enum AxisArg {
     X,
     Y,
     Z,
+}
+
+impl AxisArg {
+    /// 0, 1 or 2 for x, y or z.
+    pub fn index(self) -> usize {
+        self as usize
+    }
 }
 
 #[derive(Args, Debug)]

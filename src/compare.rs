@@ -103,6 +103,19 @@ impl Rgba {
         limits
             .check_pixels(pixels, "the pixels its header claims")
             .map_err(|e| read_error(e.to_string()))?;
+        // The decoded channels (up to 4 bytes a sample) and our RGBA copy.
+        let samples: u64 = meta
+            .headers
+            .iter()
+            .map(|h| h.layer_size.area() as u64 * h.channels.list.len() as u64)
+            .fold(0, u64::saturating_add);
+        crate::limits::check_memory(
+            samples
+                .saturating_mul(4)
+                .saturating_add(pixels.saturating_mul(16)),
+            "its pixels",
+        )
+        .map_err(|e| read_error(e.to_string()))?;
         reader
             .seek(std::io::SeekFrom::Start(0))
             .map_err(|e| read_error(e.to_string()))?;
@@ -189,6 +202,31 @@ pub struct Comparison {
 }
 
 impl Comparison {
+    /// Why these images fail a check that allows a colour RMSE of `limit`, if they do: a
+    /// pixel that is not finite fails it whatever the limit (an error no RMSE can show; a NaN
+    /// limit passes nothing).
+    pub fn fails(&self, limit: f64) -> Option<String> {
+        if self.non_finite > 0 {
+            return Some(format!(
+                "{} pixels are not finite (NaN or infinite)",
+                self.non_finite
+            ));
+        }
+        if self.rgb.rmse > limit || limit.is_nan() {
+            return Some(format!(
+                "colour rmse {:.6} is above the limit {limit}",
+                self.rgb.rmse
+            ));
+        }
+        None
+    }
+
+    /// The error a false-colour picture of these images draws brightest by default: the
+    /// largest, colour or alpha, kept finite for `f32`.
+    pub fn heatmap_scale(&self) -> f32 {
+        self.rgb.max.max(self.alpha.max).clamp(0.0, f32::MAX as f64) as f32
+    }
+
     /// The metrics as a table under `title`, as `texel compare` prints them.
     pub fn to_text(&self, title: &str) -> String {
         let mut s = format!("{title}: {} pixels", self.pixels);

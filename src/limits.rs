@@ -19,8 +19,11 @@ pub struct Limits {
 impl Default for Limits {
     fn default() -> Self {
         Limits {
-            // A 256^3 texture (the bake's largest) and its mips: 19.2 million.
-            cells: 1 << 25,
+            // 4.2 million: a 160^3 texture and its mips, about 330 MiB in memory (80 bytes a
+            // cell); the default bake (32 cells) makes 37,000, and a 65 KB file of zeros that
+            // claims 300^3 cells (4.8 GB once read) is refused. `--max-cells` lets the bake
+            // go to its largest, 256^3 (19.2 million).
+            cells: 1 << 22,
             // 16.8 million: a hundred detailed trees in one file.
             triangles: 1 << 24,
             // 16.8 million: sixteen times the million-tree benchmark.
@@ -69,4 +72,26 @@ impl Limits {
     pub fn check_pixels(&self, pixels: u64, what: &str) -> Result<(), LimitError> {
         Self::check(pixels, self.pixels, what, "--max-pixels")
     }
+}
+
+/// Work that needs more memory than this machine gives.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{what} needs {bytes} bytes of memory, more than this machine can give")]
+pub struct MemoryError {
+    pub what: String,
+    pub bytes: u64,
+}
+
+/// Refuses work whose memory (`bytes`) this machine cannot give, probed by reserving it and
+/// freeing it at once: a size that a raised limit lets through then fails with a message
+/// before any work, instead of aborting the process once the work is done. (Memory the system
+/// overcommits may still run out later; this catches what it refuses outright.)
+pub fn check_memory(bytes: u64, what: &str) -> Result<(), MemoryError> {
+    let refused = || MemoryError {
+        what: what.to_string(),
+        bytes,
+    };
+    let n = usize::try_from(bytes).map_err(|_| refused())?;
+    let mut probe: Vec<u8> = Vec::new();
+    probe.try_reserve_exact(n).map_err(|_| refused())
 }

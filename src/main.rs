@@ -11,7 +11,13 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             // One line: the context chain joined, outermost first.
-            let message: Vec<String> = e.chain().map(|c| c.to_string()).collect();
+            // A cause that its error's own message already quotes is not repeated.
+            let mut message: Vec<String> = Vec::new();
+            for cause in e.chain().map(|c| c.to_string()) {
+                if !message.last().is_some_and(|m| m.contains(&cause)) {
+                    message.push(cause);
+                }
+            }
             // Build logs and scripts expect one line per error; names from files must not
             // reach the terminal as control sequences.
             let line = message.join(": ").replace('\n', " ");

@@ -8,6 +8,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::input::InputError;
+
 /// The value of `format` every species file carries.
 pub const FORMAT: &str = "texel-forest species 1";
 
@@ -69,7 +71,8 @@ pub struct Traits {
     pub light: Light,
     pub leaf_habit: LeafHabit,
     pub leaf_out: LeafOut,
-    pub autumn_colour: AutumnColour,
+    #[serde(rename = "autumn_colour")]
+    pub autumn_color: AutumnColor,
 }
 
 #[derive(
@@ -112,7 +115,7 @@ pub enum LeafOut {
     Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq, bincode::Encode, bincode::Decode,
 )]
 #[serde(rename_all = "snake_case")]
-pub enum AutumnColour {
+pub enum AutumnColor {
     Red,
     Yellow,
     None,
@@ -174,7 +177,7 @@ pub struct Preference {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq, bincode::Encode, bincode::Decode)]
 #[serde(deny_unknown_fields)]
 pub struct Seasons {
-    pub foliage: Vec<ColourKey>,
+    pub foliage: Vec<ColorKey>,
     pub leaf_fraction: Vec<FractionKey>,
 }
 
@@ -182,7 +185,7 @@ pub struct Seasons {
     Clone, Copy, Debug, Deserialize, Serialize, PartialEq, bincode::Encode, bincode::Decode,
 )]
 #[serde(deny_unknown_fields)]
-pub struct ColourKey {
+pub struct ColorKey {
     pub day: f64,
     /// Linear RGB albedo of the foliage.
     pub albedo: [f64; 3],
@@ -198,8 +201,10 @@ pub struct FractionKey {
     pub value: f64,
 }
 
+/// A species file that cannot be read or is not valid: the file, the JSON path of the field
+/// at fault (empty for the file as a whole) and the problem.
 #[derive(Debug, thiserror::Error)]
-#[error("{file}: {field}: {message}")]
+#[error("{}: {}{message}", file.display(), if field.is_empty() { String::new() } else { format!("{field}: ") })]
 pub struct SpeciesError {
     pub file: PathBuf,
     pub field: String,
@@ -315,15 +320,28 @@ impl Species {
 }
 
 impl SpeciesFile {
-    /// Reads and validates a species file.
+    /// Reads (no more than a species file may hold) and validates a species file.
     pub fn load(path: &Path) -> Result<SpeciesFile, SpeciesError> {
+        Ok(SpeciesFile::read(path)?.1)
+    }
+
+    /// [`SpeciesFile::load`], with the bytes read (to record the file by its hash).
+    pub fn read(path: &Path) -> Result<(Vec<u8>, SpeciesFile), SpeciesError> {
         let error = |field: &str, message: String| SpeciesError {
             file: path.to_path_buf(),
             field: field.to_string(),
             message,
         };
-        let bytes = std::fs::read(path).map_err(|e| error("", format!("cannot read: {e}")))?;
-        SpeciesFile::parse(&bytes).map_err(|(field, message)| error(&field, message))
+        let bytes = crate::input::read_bounded(path, crate::input::MAX_SPECIES, "species file")
+            .map_err(|e| match e {
+                InputError::Io { source, .. } => error("", format!("cannot read: {source}")),
+                InputError::TooLarge { limit, what, .. } => error(
+                    "",
+                    format!("larger than the {limit} bytes a {what} may have"),
+                ),
+            })?;
+        let file = SpeciesFile::parse(&bytes).map_err(|(field, message)| error(&field, message))?;
+        Ok((bytes, file))
     }
 
     /// Parses and validates; errors are (JSON path, problem).

@@ -66,7 +66,7 @@ fn compare_measures_known_differences_and_draws_them() {
     // A build can fail on too large an error, with its own status.
     let o = run(&["compare", "a.exr", "ref.exr", "--fail-above", "0.1"], d);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
-    assert!(stderr(&o).contains("above --fail-above"));
+    assert!(stderr(&o).contains("above the limit 0.1 (--fail-above)"));
     assert!(
         run(&["compare", "a.exr", "ref.exr", "--fail-above", "0.2"], d)
             .status

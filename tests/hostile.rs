@@ -209,6 +209,81 @@ fn endless_inputs_are_refused_without_reading_them_whole() {
     );
 }
 
+/// A glTF buffer that names an endless file (`/dev/zero` here) with a huge `byteLength` is
+/// refused by what it declares, before it is read.
+#[cfg(unix)]
+#[test]
+fn a_gltf_buffer_that_declares_too_much_is_refused_before_it_is_read() {
+    if !Path::new("/dev/zero").exists() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.bin")).unwrap();
+    let gltf = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "min": [0, 0, 0], "max": [1, 1, 1] }],
+        "bufferViews": [{ "buffer": 0, "byteLength": 36 }],
+        "buffers": [{ "uri": "zero.bin", "byteLength": 1_u64 << 40 }],
+    });
+    std::fs::write(dir.path().join("tree.gltf"), gltf.to_string()).unwrap();
+    assert_error(
+        &run(&["bake", "tree.gltf", "-o", "tree.texel"], dir.path()),
+        &[
+            "tree.gltf",
+            "buffers[0].byteLength",
+            "1099511627776 bytes",
+            "in all",
+        ],
+    );
+    assert!(!dir.path().join("tree.texel").exists());
+}
+
+/// A texture of 300^3 cells, all zero, compresses to kilobytes but is gigabytes once read: the
+/// default cell limit refuses it from its header (the invalid corpus's bomb, read through the
+/// CLI), and the bake refuses to make a texture the readers would refuse.
+#[test]
+fn a_texture_bomb_is_refused_from_its_header() {
+    let dir = small_forest();
+    let bomb = fixture("formats/invalid/texel-cells-over-the-default-limit.texel");
+    let o = run(&["inspect", bomb.to_str().unwrap()], dir.path());
+    assert_error(
+        &o,
+        &[
+            "texel-cells-over-the-default-limit.texel",
+            "cell count (all levels) is 30859767",
+            "--max-cells",
+        ],
+    );
+    let conifer = fixture("trees/conifer.glb");
+    let o = run(
+        &[
+            "bake",
+            conifer.to_str().unwrap(),
+            "-o",
+            "big.texel",
+            "--resolution",
+            "256",
+            "--fine",
+            "512",
+        ],
+        dir.path(),
+    );
+    assert_error(
+        &o,
+        &[
+            "--resolution 256",
+            "over the limit of 4194304",
+            "--max-cells",
+        ],
+    );
+    assert!(!dir.path().join("big.texel").exists());
+}
+
 #[test]
 fn small_files_that_claim_much_are_refused_by_the_limits() {
     let dir = small_forest();

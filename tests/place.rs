@@ -426,7 +426,7 @@ fn the_real_terrain_takes_a_forest() {
 }
 
 /// A copy of the fixture species file with `edit` applied to every species.
-fn species_variant(dir: &Path, name: &str, edit: impl Fn(&mut serde_json::Value)) {
+fn species_variant(dir: &Path, name: &str, mut edit: impl FnMut(&mut serde_json::Value)) {
     let mut v: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("species.json")).unwrap()).unwrap();
     for s in v["species"].as_array_mut().unwrap() {
@@ -479,6 +479,71 @@ fn an_empty_forest_says_why_and_inspect_says_no_trees() {
         v["bytes_per_tree"].is_null() && v["min_distance"].is_null(),
         "{v}"
     );
+}
+
+/// One species taking every tree is worth a warning that names it and what the others ask
+/// for; `place`'s summary line says "no trees" rather than bytes per tree for an empty forest,
+/// and shows names from the species file escaped.
+#[test]
+fn a_one_sided_forest_says_why_and_names_are_escaped() {
+    let dir = forest_dir();
+    // Every species but the first asks for cliffs; the first is renamed with a terminal escape.
+    let mut first = true;
+    species_variant(dir.path(), "one.json", |s| {
+        if first {
+            s["name"] = serde_json::json!("beech\u{1b}[2J");
+            first = false;
+        } else {
+            s["habitat"] = serde_json::json!({ "slope": { "min": 85, "max": 90 } });
+        }
+    });
+    let t = mountain();
+    let o = run(
+        &[
+            "place",
+            t.to_str().unwrap(),
+            "--species",
+            "one.json",
+            "-o",
+            "one.instances",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains(
+            "every tree is \"beech\\u{1b}[2J\": no ground in the region suits the other species"
+        ),
+        "{err}"
+    );
+    assert!(err.contains("asks for slope 85..90"), "{err}");
+    assert!(
+        !err.contains('\u{1b}'),
+        "an escape reached the terminal: {err:?}"
+    );
+
+    species_variant(dir.path(), "cliffs.json", |s| {
+        s["habitat"] = serde_json::json!({ "slope": { "min": 85, "max": 90 } })
+    });
+    let o = run(
+        &[
+            "place",
+            t.to_str().unwrap(),
+            "--species",
+            "cliffs.json",
+            "-o",
+            "empty.instances",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("placed 0 trees") && err.contains("no trees"),
+        "{err}"
+    );
+    assert!(!err.contains("bytes per tree"), "{err}");
 }
 
 #[test]

@@ -174,27 +174,43 @@ pub(super) fn lattice(
 }
 
 /// Optical depth per unit extinction scale of the ray `o + t d` through `level`'s trilinear
-/// densities (both parts), by the midpoint rule on equal steps of at most half a cell
-/// between where the ray enters and leaves the level's box: density jumps from zero at the
-/// box's faces and is continuous inside, so the steps must start and end there.
+/// densities (both parts), by the midpoint rule of [`midpoints`].
 fn depth(level: &Level, origin: DVec3, o: DVec3, d: DVec3) -> f64 {
-    let (t0, t1) = box_interval(level, origin, o, d);
-    if t1 <= t0 {
-        return 0.0;
-    }
-    let n = ((t1 - t0) / (level.cell / SAMPLES_PER_CELL))
-        .ceil()
-        .max(1.0);
-    let step = (t1 - t0) / n;
     let start = (o - origin) / level.cell;
     let dc = d / level.cell;
-    let mut sum = 0.0;
-    for s in 0..n as usize {
-        let c = start + dc * (t0 + (s as f64 + 0.5) * step);
-        let [wood, foliage] = level.density_at(Vec3::new(c.x as f32, c.y as f32, c.z as f32));
-        sum += f64::from(wood + foliage);
+    let (ts, step) = midpoints(level, origin, o, d);
+    if step == 0.0 {
+        return 0.0;
     }
-    sum * step
+    ts.map(|t| {
+        let c = start + dc * t;
+        let [wood, foliage] = level.density_at(Vec3::new(c.x as f32, c.y as f32, c.z as f32));
+        f64::from(wood + foliage)
+    })
+    .sum::<f64>()
+        * step
+}
+
+/// The midpoints `t` of equal steps of at most `1 / SAMPLES_PER_CELL` of a cell between where
+/// `o + t d` enters and leaves the level's box, and the step: density jumps from zero at the
+/// box's faces and is continuous inside, so the steps must start and end there. No points
+/// where the ray misses the box.
+pub(super) fn midpoints(
+    level: &Level,
+    origin: DVec3,
+    o: DVec3,
+    d: DVec3,
+) -> (impl Iterator<Item = f64>, f64) {
+    let (t0, t1) = box_interval(level, origin, o, d);
+    let (n, step) = if t1 <= t0 {
+        (0, 0.0)
+    } else {
+        let n = ((t1 - t0) / (level.cell / SAMPLES_PER_CELL))
+            .ceil()
+            .max(1.0);
+        (n as usize, (t1 - t0) / n)
+    };
+    ((0..n).map(move |s| t0 + (s as f64 + 0.5) * step), step)
 }
 
 /// The factor `f` in [F_MIN, F_MAX] whose blocked count, the sum over rays of
@@ -211,7 +227,7 @@ fn fit(depths: &[f64], target: f64) -> f64 {
 }
 
 /// The parameter interval `(t0, t1)` of `o + t d` inside the level's box (empty if `t1 <= t0`).
-pub(super) fn box_interval(level: &Level, origin: DVec3, o: DVec3, d: DVec3) -> (f64, f64) {
+fn box_interval(level: &Level, origin: DVec3, o: DVec3, d: DVec3) -> (f64, f64) {
     let size = DVec3::from(level.dims.map(|n| n as f64)) * level.cell;
     let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
     for a in 0..3 {

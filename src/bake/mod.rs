@@ -16,7 +16,10 @@ mod tomography;
 use rayon::prelude::*;
 use regex::Regex;
 
-use crate::import::Mesh;
+use std::path::Path;
+
+use crate::import::{Mesh, Model};
+use crate::provenance;
 use crate::volume::{
     BakeParameters, DensityModel, ISOTROPIC_LEAVES, Level, Texel, TexelInfo, unit_moment,
 };
@@ -127,7 +130,21 @@ const MAX_FINE: usize = 4096;
 /// (and no tree is a tenth of a millimetre tall).
 const MIN_MODEL_SIZE: f64 = 1e-4;
 
-/// Bakes `mesh` into a texture. Sources and hashes are left empty for the caller to fill in.
+/// Bakes an imported model into a texture that records what it was made from: every file the
+/// import read, by path relative to `output_dir` (the directory the `.texel` is written to)
+/// and SHA-256, and the hash of those hashes (`inputs_sha256`), as `formats/texel.md` asks.
+pub fn bake_model(
+    model: &Model,
+    settings: &BakeSettings,
+    output_dir: &Path,
+) -> Result<Texel, BakeError> {
+    let mut texel = bake(&model.mesh, settings)?;
+    (texel.info.sources, texel.info.inputs_sha256) = provenance::record(&model.sources, output_dir);
+    Ok(texel)
+}
+
+/// Bakes `mesh` into a texture that records no sources ([`bake_model`] records them): for
+/// meshes made in memory, and for measuring the bake alone.
 pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     settings.validate()?;
     let grid = fit_grid(mesh, settings)?;
@@ -252,6 +269,19 @@ pub fn axis_extinctions(
 }
 
 /// Level 0 and every coarser level down to one cell (see `formats/texel.md`).
+/// The cells, all mip levels, that baking `mesh` with `settings` makes: known before any work,
+/// so that a bake can be held to the reader's `--max-cells` before it starts.
+pub fn planned_cells(mesh: &Mesh, settings: &BakeSettings) -> Result<u64, BakeError> {
+    settings.validate()?;
+    let mut dims = fit_grid(mesh, settings)?.dims.map(|d| d as u64);
+    let mut cells = dims.iter().product::<u64>();
+    while dims.iter().product::<u64>() > 1 {
+        dims = dims.map(|d| d.div_ceil(2));
+        cells += dims.iter().product::<u64>();
+    }
+    Ok(cells)
+}
+
 pub fn mip_chain(level0: Level, extinction_scale: f64) -> Vec<Level> {
     let mut levels = vec![level0];
     while let Some(last) = levels.last().filter(|l| l.cell_count() > 1) {

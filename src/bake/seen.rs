@@ -39,7 +39,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::calibrate::{bisect_log, box_interval};
+use super::calibrate::{bisect_log, midpoints};
 use crate::geom::{Ray, barycentric_point, offset_origin};
 use crate::import::Mesh;
 use crate::mesh_tracer::MeshTracer;
@@ -48,8 +48,6 @@ use crate::volume::{Level, SELF_SHADOW_ANGLES};
 
 /// The largest factor a fit may give.
 const K_MAX: f64 = 16.0;
-/// March samples per cell of the level marched.
-const SAMPLES_PER_CELL: f64 = 2.0;
 /// Spacing of the view rays, in level-0 cells (1.5 left the broadleaf's coarse levels 2 % brighter
 /// near the hot spot: the fit's own noise).
 const RAY_SPACING: f64 = 1.0;
@@ -176,22 +174,15 @@ struct ViewSample {
     sigma: [f64; 2],
 }
 
-/// The view ray `o - t v` marched through the level (midpoint rule, `SAMPLES_PER_CELL`).
+/// The view ray `o - t v` marched through the level (the midpoint rule of [`midpoints`]).
 fn march_view(level: &Level, origin: DVec3, scale: f64, o: DVec3, v: DVec3) -> Vec<ViewSample> {
     let d = -v;
-    let (t0, t1) = box_interval(level, origin, o, d);
-    if t1 <= t0 {
-        return Vec::new();
-    }
     let factor = scale * f64::from(level.directional_factor(d.as_vec3()));
-    let n = ((t1 - t0) / (level.cell / SAMPLES_PER_CELL))
-        .ceil()
-        .max(1.0) as usize;
-    let step = (t1 - t0) / n as f64;
+    let (ts, step) = midpoints(level, origin, o, d);
     let mut transmittance = 1.0f64;
-    let mut samples = Vec::with_capacity(n);
-    for s in 0..n {
-        let p = o + d * (t0 + (s as f64 + 0.5) * step);
+    let mut samples = Vec::new();
+    for t in ts {
+        let p = o + d * t;
         let sigma = extinction(level, origin, p, factor);
         let opacity = -(-(sigma[0] + sigma[1]) * step).exp_m1();
         if opacity > 0.0 {
@@ -218,25 +209,15 @@ pub fn foliage_chance(sigma: [f64; 2], w: f64) -> f64 {
 
 /// Optical depth from `p` along `d` to the level's box, per unit extinction scale.
 fn depth_from(level: &Level, origin: DVec3, p: DVec3, d: DVec3, factor: f64) -> f64 {
-    let (t0, t1) = box_interval(level, origin, p, d);
-    if t1 <= t0 {
+    let (ts, step) = midpoints(level, origin, p, d);
+    if step == 0.0 {
         return 0.0;
     }
-    let n = ((t1 - t0) / (level.cell / SAMPLES_PER_CELL))
-        .ceil()
-        .max(1.0);
-    let step = (t1 - t0) / n;
-    (0..n as usize)
-        .map(|s| {
-            let [wood, foliage] = extinction(
-                level,
-                origin,
-                p + d * (t0 + (s as f64 + 0.5) * step),
-                factor,
-            );
-            wood + foliage
-        })
-        .sum::<f64>()
+    ts.map(|t| {
+        let [wood, foliage] = extinction(level, origin, p + d * t, factor);
+        wood + foliage
+    })
+    .sum::<f64>()
         * step
 }
 

@@ -10,7 +10,6 @@ use texel_forest::formats::texel;
 use texel_forest::import;
 use texel_forest::limits::Limits;
 use texel_forest::output::{Outputs, depfile};
-use texel_forest::provenance;
 use texel_forest::volume::DensityModel;
 
 use crate::cli::{BakeArgs, DensityArg};
@@ -46,10 +45,20 @@ pub fn run(args: &BakeArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> 
     }
     let read: Vec<PathBuf> = model.sources.iter().map(|s| s.path.clone()).collect();
     outputs.add_inputs(&read)?;
-    let mut baked =
-        bake::bake(&model.mesh, &settings).with_context(|| args.input.display().to_string())?;
-    let out_dir = super::directory_of(&args.output);
-    (baked.info.sources, baked.info.inputs_sha256) = provenance::record(&model.sources, &out_dir);
+    // A texture the readers would refuse is refused before it is baked.
+    let cells = bake::planned_cells(&model.mesh, &settings)
+        .with_context(|| args.input.display().to_string())?;
+    limits
+        .check_cells(
+            cells,
+            &format!(
+                "--resolution {}: the texture's cell count (all levels)",
+                args.resolution
+            ),
+        )
+        .with_context(|| args.input.display().to_string())?;
+    let baked = bake::bake_model(&model, &settings, &super::directory_of(&args.output))
+        .with_context(|| args.input.display().to_string())?;
 
     let bytes = texel::encode(&baked).with_context(|| args.output.display().to_string())?;
     let size = bytes.len();
@@ -60,8 +69,8 @@ pub fn run(args: &BakeArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> 
     outputs.commit()?;
     if !quiet {
         let l = &baked.levels[0];
-        eprintln!(
-            "texel: baked {} ({} triangles, {} foliage) -> {} {}x{}x{} cells of {:.3} m, {} levels, {}, {:.1} KiB in {:.2} s",
+        super::summary(&format!(
+            "baked {} ({} triangles, {} foliage) -> {} {}x{}x{} cells of {:.3} m, {} levels, {}, {:.1} KiB in {:.2} s",
             args.input.display(),
             baked.info.triangles,
             baked.info.foliage_triangles,
@@ -74,7 +83,7 @@ pub fn run(args: &BakeArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> 
             baked.info.density_model.name(),
             size as f64 / 1024.0,
             start.elapsed().as_secs_f64()
-        );
+        ));
     }
     Ok(())
 }

@@ -35,10 +35,9 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let scale = args
-        .scale
-        .unwrap_or(all.rgb.max.max(all.alpha.max))
-        .clamp(0.0, f32::MAX as f64) as f32;
+    let scale = args.scale.map_or(all.heatmap_scale(), |s| {
+        s.clamp(0.0, f32::MAX as f64) as f32
+    });
     if let Some(id) = heatmap_out {
         // A zero scale (identical images) draws everything black rather than dividing by 0.
         let picture = heatmap(&a, &b, scale.max(f32::MIN_POSITIVE));
@@ -76,26 +75,15 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
         }
         super::print(&text)?;
     }
-    if let Some(limit) = args.fail_above {
-        // A pixel that is not finite is an error no RMSE can show: it fails the check.
-        if all.non_finite > 0 {
-            return Err(TooDifferent(format!(
-                "{}: {} pixels against {} are not finite (NaN or infinite), which --fail-above {limit} does not allow",
-                args.image.display(),
-                all.non_finite,
-                args.reference.display()
-            ))
-            .into());
-        }
-        if all.rgb.rmse > limit {
-            return Err(TooDifferent(format!(
-                "{}: colour rmse {:.6} against {} is above --fail-above {limit}",
-                args.image.display(),
-                all.rgb.rmse,
-                args.reference.display()
-            ))
-            .into());
-        }
+    if let Some(limit) = args.fail_above
+        && let Some(why) = all.fails(limit)
+    {
+        return Err(TooDifferent(format!(
+            "{} against {}: {why} (--fail-above)",
+            args.image.display(),
+            args.reference.display()
+        ))
+        .into());
     }
     Ok(())
 }

@@ -5,25 +5,37 @@ use std::path::Path;
 use anyhow::{Context, bail};
 
 use texel_forest::formats::{container, instances, texel};
-use texel_forest::input::{self, MAX_GLTF, MAX_SPECIES};
+use texel_forest::input::{self, MAX_GLTF};
 use texel_forest::inspect::{FileFacts, Kind};
 use texel_forest::inspect::{
     instances as forest_view, pictures, terrain as terrain_view, texel as summary,
 };
 use texel_forest::limits::Limits;
-use texel_forest::output::Outputs;
+use texel_forest::output::{OutputId, Outputs};
 use texel_forest::place::PlaceSettings;
 use texel_forest::provenance::{self, Check};
 use texel_forest::species::SpeciesFile;
 use texel_forest::terrain::Terrain;
 
-use crate::cli::{AxisArg, InspectArgs};
+use crate::cli::InspectArgs;
 
-fn axis_index(a: AxisArg) -> usize {
-    match a {
-        AxisArg::X => 0,
-        AxisArg::Y => 1,
-        AxisArg::Z => 2,
+/// The picture a forest or a terrain (`kind`) is asked for, if any: `--map` with `-o`, never
+/// one without the other, and none of the texture's pictures.
+fn map_output(
+    args: &InspectArgs,
+    picture: Option<OutputId>,
+    kind: &str,
+) -> anyhow::Result<Option<OutputId>> {
+    if args.slice.is_some() || args.projection.is_some() {
+        bail!(
+            "--slice and --projection draw .texel files; {} is {kind} (use --map)",
+            args.file.display()
+        );
+    }
+    match (picture, args.map) {
+        (None, true) => bail!("--map writes a picture: give -o FILE.png"),
+        (Some(_), false) => bail!("-o names a picture: give --map with it"),
+        (picture, _) => Ok(picture),
     }
 }
 
@@ -42,11 +54,7 @@ fn print_summary<S: serde::Serialize>(
 }
 
 /// Writes the picture to `-o` (planned before the work, so a bad path fails first).
-fn write_png(
-    mut outputs: Outputs,
-    id: texel_forest::output::OutputId,
-    image: &image::RgbImage,
-) -> anyhow::Result<()> {
+fn write_png(mut outputs: Outputs, id: OutputId, image: &image::RgbImage) -> anyhow::Result<()> {
     outputs.set(id, texel_forest::png::encode(image));
     Ok(outputs.commit()?)
 }
@@ -74,7 +82,7 @@ fn run_texel(
     args: &InspectArgs,
     limits: &Limits,
     outputs: Outputs,
-    picture: Option<texel_forest::output::OutputId>,
+    picture: Option<OutputId>,
 ) -> anyhow::Result<()> {
     let file = &args.file;
     if args.map {
@@ -115,7 +123,7 @@ fn run_texel(
             }
             pictures::slice(&texel, args.level, axis, index)
         }
-        (None, Some(axis)) => pictures::projection(&texel, args.level, axis_index(axis)),
+        (None, Some(axis)) => pictures::projection(&texel, args.level, axis.index()),
         (None, None) => bail!("-o names a picture: give --slice or --projection with it"),
     };
     write_png(outputs, out, &image)
@@ -125,28 +133,17 @@ fn run_instances(
     args: &InspectArgs,
     limits: &Limits,
     outputs: Outputs,
-    picture: Option<texel_forest::output::OutputId>,
+    picture: Option<OutputId>,
 ) -> anyhow::Result<()> {
     let file = &args.file;
-    if args.slice.is_some() || args.projection.is_some() {
-        bail!(
-            "--slice and --projection draw .texel files; {} is a forest (use --map)",
-            file.display()
-        );
-    }
+    let picture = map_output(args, picture, "a forest")?;
     let bytes = container::read_file(file)?;
     let forest =
         instances::decode_with(&bytes, limits).with_context(|| file.display().to_string())?;
     let Some(out) = picture else {
-        if args.map {
-            bail!("--map writes a picture: give -o FILE.png");
-        }
         let s = forest_view::summarize(&forest, FileFacts::of(&bytes));
         return print_summary(&s, args.json, forest_view::to_text);
     };
-    if !args.map {
-        bail!("-o names a picture: give --map with it");
-    }
     // The terrain, found relative to the forest file, shades the map; a missing or changed
     // terrain is worth a warning, not a failure.
     let dir = file.parent().unwrap_or(Path::new(""));
@@ -174,24 +171,11 @@ fn run_terrain(
     args: &InspectArgs,
     limits: &Limits,
     outputs: Outputs,
-    picture: Option<texel_forest::output::OutputId>,
+    picture: Option<OutputId>,
 ) -> anyhow::Result<()> {
     let file = &args.file;
-    if args.slice.is_some() || args.projection.is_some() {
-        bail!(
-            "--slice and --projection draw .texel files; {} is a terrain (use --map)",
-            file.display()
-        );
-    }
-    let species = match &args.species {
-        Some(path) => {
-            let bytes = input::read_bounded(path, MAX_SPECIES, "species file")?;
-            Some(SpeciesFile::parse(&bytes).map_err(|(field, message)| {
-                anyhow::anyhow!("{}: {field}: {message}", path.display())
-            })?)
-        }
-        None => None,
-    };
+    let picture = map_output(args, picture, "a terrain")?;
+    let species = args.species.as_deref().map(SpeciesFile::load).transpose()?;
     let terrain = Terrain::load(file, limits)?;
     for w in &terrain.model.warnings {
         super::warn(w);
@@ -204,12 +188,10 @@ fn run_terrain(
     };
     let base = super::directory_of(file);
     let (sources, _) = provenance::record(&terrain.model.sources, &base);
-    let (summary, habitat) =
+    let (summary, ground) =
         terrain_view::summarize(&terrain, species.as_ref(), &settings, sources)?;
     match picture {
-        None if args.map => bail!("--map writes a picture: give -o FILE.png"),
         None => print_summary(&summary, args.json, terrain_view::to_text),
-        Some(_) if !args.map => bail!("-o names a picture: give --map with it"),
-        Some(out) => write_png(outputs, out, &terrain_view::attribute_maps(&habitat)),
+        Some(out) => write_png(outputs, out, &terrain_view::attribute_maps(&ground)),
     }
 }

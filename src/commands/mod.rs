@@ -37,6 +37,11 @@ pub fn warn(message: &str) {
     eprintln!("texel: warning: {}", lines.join("\n    "));
 }
 
+/// Prints a run's summary line (control characters from files escaped, as in warnings).
+pub fn summary(message: &str) {
+    eprintln!("texel: {}", texel_forest::inspect::printable(message));
+}
+
 /// Writes to standard output; a reader that stops early (`| head`) is not an error.
 pub fn print(text: &str) -> anyhow::Result<()> {
     use std::io::Write;

@@ -82,14 +82,18 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
             .map(|(s, c)| format!("{} {c}", s.name))
             .collect();
         let r = file.info.region;
-        eprintln!(
-            "texel: placed {n} trees ({}) on {:.1} ha -> {}, {:.2} bytes per tree, in {:.2} s",
+        let per_tree = if n == 0 {
+            "no trees".to_string()
+        } else {
+            format!("{:.2} bytes per tree", size as f64 / n as f64)
+        };
+        super::summary(&format!(
+            "placed {n} trees ({}) on {:.1} ha -> {}, {per_tree}, in {:.2} s",
             per_species.join(", "),
             (r[2] - r[0]) * (r[3] - r[1]) / 1e4,
             args.output.display(),
-            size as f64 / n.max(1) as f64,
             start.elapsed().as_secs_f64()
-        );
+        ));
     }
     Ok(())
 }

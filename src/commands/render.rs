@@ -7,11 +7,11 @@ use anyhow::bail;
 use glam::{DVec3, Vec3};
 
 use texel_forest::import;
-use texel_forest::limits::Limits;
+use texel_forest::limits::{Limits, check_memory};
 use texel_forest::output::{OutputId, Outputs, depfile};
 use texel_forest::render::load::{self, LoadedScene, SceneRequest};
 use texel_forest::render::{
-    self, Aovs, Camera, Film, Lighting, March, Method, RenderSettings, Shading,
+    self, Aovs, Camera, Film, Lighting, March, Method, RenderSettings, Shading, film,
     view::{self, CameraChoice},
 };
 
@@ -75,24 +75,26 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
             ),
             MethodArg::Mesh => ("meshes", format!("{shadow_rays:.1} shadow rays per pixel")),
         };
-        eprintln!(
-            "texel: rendered {trees} trees from their {drawn_from}, {}x{} ({pixels} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} ({:.2} s in all)",
+        super::summary(&format!(
+            "rendered {trees} trees from their {drawn_from}, {}x{} ({pixels} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} ({:.2} s in all)",
             args.width,
             args.height,
             args.spp,
             rays as f64 / seconds,
             args.output.display(),
             start.elapsed().as_secs_f64()
-        );
+        ));
     }
     Ok(())
 }
 
 /// Checks the frame's size and plans every output, before anything is read.
 fn plan(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Planned> {
-    limits.check_pixels(
-        u64::from(args.width) * u64::from(args.height),
-        "--width x --height",
+    let pixels = u64::from(args.width) * u64::from(args.height);
+    limits.check_pixels(pixels, "--width x --height")?;
+    check_memory(
+        pixels.saturating_mul(film::BYTES_PER_PIXEL),
+        &format!("a {}x{} frame", args.width, args.height),
     )?;
     if let Some([x0, y0, x1, y1]) = args.crop
         && !(x1 <= args.width && y1 <= args.height)

@@ -165,8 +165,15 @@ pub fn read_file(path: &std::path::Path) -> Result<Vec<u8>, crate::input::InputE
             return None;
         }
         let (h, r, p) = (u32_at(b, 12) as u64, u64_at(b, 16), u64_at(b, 24));
-        (h <= MAX_HEADER as u64 && r <= MAX_PAYLOAD && p <= max_stored(r))
-            .then_some(PREAMBLE as u64 + 4 + h + p)
+        // Absurd lengths: no more than the CRC's four bytes, so that reading stops at step 4
+        // (which names the length) rather than at step 2 (truncated).
+        Some(
+            if h <= MAX_HEADER as u64 && r <= MAX_PAYLOAD && p <= max_stored(r) {
+                PREAMBLE as u64 + 4 + h + p
+            } else {
+                PREAMBLE as u64 + 4
+            },
+        )
     })
 }
 

@@ -397,13 +397,13 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
     // Files before 1.2 are isotropic and shadow themselves as independent media: every
     // factor 1.
     let n = header.levels.len();
-    let sight = extension2.map_or_else(
-        || Sight {
+    let fits = extension2.map_or_else(
+        || LevelFits {
             directional: vec![crate::volume::ISOTROPIC; n],
             self_shadow: vec![crate::volume::NO_SELF_SHADOW; n],
             wood_weight: vec![1.0; n],
         },
-        |e| Sight {
+        |e| LevelFits {
             directional: e.directional,
             self_shadow: e.self_shadow,
             wood_weight: e.wood_weight,
@@ -412,7 +412,7 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
     Ok(Decoded {
         header,
         extension,
-        sight,
+        fits,
     })
 }
 
@@ -420,11 +420,11 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
 struct Decoded {
     header: Header,
     extension: HeaderV1_1,
-    sight: Sight,
+    fits: LevelFits,
 }
 
 /// The per-level fields of 1.2 (neutral values for older files).
-struct Sight {
+struct LevelFits {
     directional: Vec<[f32; 7]>,
     self_shadow: Vec<[f32; 6]>,
     wood_weight: Vec<f32>,
@@ -487,7 +487,7 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
     let Decoded {
         header,
         extension,
-        sight,
+        fits,
     } = decode_header(opened.header, opened.minor)?;
     let bad = |m: String| TexelError::Header(m);
 
@@ -542,9 +542,9 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
                     .collect(),
                 None => vec![crate::volume::ISOTROPIC_LEAVES; n],
             },
-            directional: sight.directional[index],
-            self_shadow: sight.self_shadow[index],
-            wood_weight: sight.wood_weight[index],
+            directional: fits.directional[index],
+            self_shadow: fits.self_shadow[index],
+            wood_weight: fits.wood_weight[index],
         };
         check_values(&level)?;
         levels.push(level);

@@ -5,12 +5,11 @@ use std::path::{Path, PathBuf};
 
 use base64::Engine as _;
 use gltf_json as json;
-use sha2::{Digest, Sha256};
 
 use super::ImportError;
 use crate::input::{self, InputError, MAX_GLTF};
 use crate::limits::Limits;
-use crate::provenance::Source;
+use crate::provenance::{Source, sha256};
 
 /// Extensions that change geometry or data layout and that we cannot decode.
 const COMPRESSION_EXTENSIONS: &[&str] = &[
@@ -54,10 +53,6 @@ pub(super) struct Document {
     pub sources: Vec<Source<PathBuf>>,
     pub warnings: Vec<String>,
     pub limits: Limits,
-}
-
-fn sha256(bytes: &[u8]) -> [u8; 32] {
-    Sha256::digest(bytes).into()
 }
 
 fn from_input(e: InputError) -> ImportError {
@@ -185,6 +180,19 @@ impl Document {
         if self.buffers[index].is_none() {
             let (uri, declared) = (spec.uri.clone(), spec.byte_length.0);
             let where_ = format!("buffers[{index}]");
+            // What the buffers read so far hold, and this one would add: a file that names
+            // `/dev/zero` or a FIFO with a huge byteLength must not be read without end.
+            let held: u64 = self.buffers.iter().flatten().map(|b| b.len() as u64).sum();
+            if declared.saturating_add(held) > MAX_GLTF {
+                return Err(ImportError::unsupported(
+                    &self.path,
+                    format!("{where_}.byteLength"),
+                    format!(
+                        "declares {declared} bytes; with the {held} bytes of the buffers before it, \
+                         more than the {MAX_GLTF} bytes a glTF's buffers may hold in all"
+                    ),
+                ));
+            }
             let data = match &uri {
                 None => match (index, &self.glb_bin) {
                     (0, Some(_)) => self.glb_bin.take().unwrap_or_default(),

@@ -1,5 +1,5 @@
 //! What `texel inspect TERRAIN.glb` reports: the terrain's extent and mesh resolution, the
-//! distribution of every attribute placement judges habitat by, how much of it suits each
+//! distribution of every attribute placement judges ground by, how much of it suits each
 //! species of a species file, and pictures of the attributes. What a user needs to write (or
 //! fix) a species file for a terrain.
 
@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::printable;
 use crate::color::ramp;
-use crate::place::{self, Habitat, PlaceError, PlaceSettings};
+use crate::place::{self, Ground, PlaceError, PlaceSettings};
 use crate::provenance::SourceFile;
 use crate::species::SpeciesFile;
 use crate::terrain::survey::{self, Survey};
@@ -37,7 +37,7 @@ pub fn summarize(
     species: Option<&SpeciesFile>,
     settings: &PlaceSettings,
     sources: Vec<SourceFile>,
-) -> Result<(TerrainSummary, Habitat), PlaceError> {
+) -> Result<(TerrainSummary, Ground), PlaceError> {
     let default_file;
     let file = match species {
         Some(f) => f,
@@ -50,14 +50,14 @@ pub fn summarize(
             &default_file
         }
     };
-    let habitat = place::habitat(terrain, file, settings)?;
-    let (raster, region) = (&habitat.raster, habitat.region);
+    let ground = place::ground(terrain, file, settings)?;
+    let (raster, region) = (&ground.raster, ground.region);
     let survey = survey::survey(
         raster,
-        &habitat.attributes,
+        &ground.attributes,
         file.analysis.tpi_radius,
         region,
-        species.map(|f| (f, habitat.suitability.as_slice())),
+        species.map(|f| (f, ground.suitability.as_slice())),
     );
     let summary = TerrainSummary {
         format: "glTF terrain",
@@ -68,7 +68,7 @@ pub fn summarize(
         survey,
         sources,
     };
-    Ok((summary, habitat))
+    Ok((summary, ground))
 }
 
 pub fn to_text(s: &TerrainSummary) -> String {
@@ -101,8 +101,8 @@ pub fn to_text(s: &TerrainSummary) -> String {
 /// aspect (a hue circle: north red, east yellow-green, south cyan, west purple), topographic
 /// position and wetness, each on the colour ramp from its 2nd to its 98th percentile over the
 /// raster. Cells without terrain are white.
-pub fn attribute_maps(habitat: &Habitat) -> RgbImage {
-    let raster = &habitat.raster;
+pub fn attribute_maps(ground: &Ground) -> RgbImage {
+    let raster = &ground.raster;
     let (w, h) = (raster.nx as u32, raster.nz as u32);
     // Panels of at least 256 pixels across: coarse rasters are drawn with square pixels.
     let zoom = (256 / w.max(h)).max(1);
@@ -113,7 +113,7 @@ pub fn attribute_maps(habitat: &Habitat) -> RgbImage {
     for panel in 0..6 {
         let values: Vec<f32> = match panel {
             0 => shade.clone(),
-            a => habitat.attributes.get(raster, a - 1).to_vec(),
+            a => ground.attributes.get(raster, a - 1).to_vec(),
         };
         let mut sorted: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
         sorted.sort_by(f32::total_cmp);

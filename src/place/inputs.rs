@@ -7,10 +7,9 @@ use std::path::{Path, PathBuf};
 use super::{Placement, quantisation_origin};
 use crate::formats::instances::{self, ForestInfo, SpeciesRecord};
 use crate::formats::{container, texel};
-use crate::input::{self, MAX_SPECIES};
 use crate::limits::Limits;
 use crate::provenance::{self, SourceFile};
-use crate::species::SpeciesFile;
+use crate::species::{Species, SpeciesError, SpeciesFile};
 use crate::terrain::{Terrain, TerrainError};
 
 /// Everything placement needs, read and checked.
@@ -38,6 +37,8 @@ pub enum InputsError {
     },
     #[error(transparent)]
     Terrain(#[from] TerrainError),
+    #[error(transparent)]
+    Species(#[from] SpeciesError),
 }
 
 fn file_error(what: String, e: impl std::error::Error + Send + Sync + 'static) -> InputsError {
@@ -45,14 +46,6 @@ fn file_error(what: String, e: impl std::error::Error + Send + Sync + 'static) -
         what,
         source: Box::new(e),
     }
-}
-
-/// A species file's problem, as its parser names it.
-#[derive(Debug, thiserror::Error)]
-#[error("{}{message}", if field.is_empty() { String::new() } else { format!("{field}: ") })]
-struct SpeciesProblem {
-    field: String,
-    message: String,
 }
 
 /// Reads the species file at `species`, every texture it names and the terrain at `terrain`;
@@ -64,10 +57,7 @@ pub fn load(
     limits: &Limits,
 ) -> Result<PlaceInputs, InputsError> {
     let name = species.display().to_string();
-    let species_bytes = input::read_bounded(species, MAX_SPECIES, "species file")
-        .map_err(|e| file_error(name.clone(), e))?;
-    let file = SpeciesFile::parse(&species_bytes)
-        .map_err(|(field, message)| file_error(name.clone(), SpeciesProblem { field, message }))?;
+    let (species_bytes, file) = SpeciesFile::read(species)?;
     let species_dir = species.parent().unwrap_or(Path::new(""));
 
     let mut dependencies: Vec<PathBuf> = Vec::new();
@@ -90,19 +80,7 @@ pub fn load(
         };
         let height = info.model_max[1] - info.model_min[1];
         model_heights.push(height);
-        records.push(SpeciesRecord {
-            name: s.name.clone(),
-            texel: texel_source.path,
-            texel_sha256: texel_source.sha256,
-            leafless_texel: leafless.as_ref().map(|l| l.path.clone()),
-            leafless_sha256: leafless.map(|l| l.sha256),
-            model_height: height,
-            spacing: s.spacing,
-            height_min: s.height.min,
-            height_max: s.height.max,
-            traits: s.traits,
-            seasons: s.seasons.clone(),
-        });
+        records.push(species_record(s, texel_source, leafless, height));
     }
     let terrain = Terrain::load(terrain, limits)?;
     let mut all: Vec<PathBuf> = terrain
@@ -125,6 +103,29 @@ pub fn load(
         model_heights,
         dependencies: all,
     })
+}
+
+/// How the forest file records species `s`: its textures (`texel`, and `leafless` where it has
+/// one) as found from the forest, and the height of the texture's model.
+pub fn species_record(
+    s: &Species,
+    texel: SourceFile,
+    leafless: Option<SourceFile>,
+    model_height: f64,
+) -> SpeciesRecord {
+    SpeciesRecord {
+        name: s.name.clone(),
+        texel: texel.path,
+        texel_sha256: texel.sha256,
+        leafless_texel: leafless.as_ref().map(|l| l.path.clone()),
+        leafless_sha256: leafless.map(|l| l.sha256),
+        model_height,
+        spacing: s.spacing,
+        height_min: s.height.min,
+        height_max: s.height.max,
+        traits: s.traits,
+        seasons: s.seasons.clone(),
+    }
 }
 
 /// The forest file of `placement`, made from `inputs` with `seed` (and `max_count`, where one

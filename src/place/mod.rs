@@ -105,7 +105,7 @@ pub fn region_of(terrain: &Terrain, region: Option<[f64; 4]>) -> Result<[f64; 4]
 
 /// The ground as placement judges it: the height raster over the region (and a
 /// topographic-position radius around it), its attributes, and each species' suitability.
-pub struct Habitat {
+pub struct Ground {
     pub region: [f64; 4],
     pub raster: Heightfield,
     pub attributes: Attributes,
@@ -114,11 +114,11 @@ pub struct Habitat {
 }
 
 /// Judges the ground of `terrain` for `species` with `settings`' region, cell and sea level.
-pub fn habitat(
+pub fn ground(
     terrain: &Terrain,
     species: &SpeciesFile,
     settings: &PlaceSettings,
-) -> Result<Habitat, PlaceError> {
+) -> Result<Ground, PlaceError> {
     let region = region_of(terrain, settings.region)?;
     let cell = settings.cell.unwrap_or_else(|| terrain.natural_cell());
     if !(cell.is_finite() && cell > 0.0) {
@@ -162,7 +162,7 @@ pub fn habitat(
                 .collect()
         })
         .collect();
-    Ok(Habitat {
+    Ok(Ground {
         region,
         raster,
         attributes,
@@ -185,12 +185,12 @@ pub fn place(
              {MAX_RADIUS_RATIO} times the smallest (check the species' spacing and height)"
         )));
     }
-    let Habitat {
+    let Ground {
         region,
         raster,
         attributes,
         suitability,
-    } = habitat(terrain, species, settings)?;
+    } = ground(terrain, species, settings)?;
     let chooser = Chooser::new(&raster, &suitability, species);
     let samples = poisson::sample(
         region,

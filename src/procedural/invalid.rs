@@ -260,6 +260,31 @@ fn texel_level_chain_files(base: &Texel, add: &mut Add) {
         forge(&|p| p.header.levels[0].dims[0] = 4097),
         "level 0 has [4097, 2, 2] cells",
     );
+    // A decompression bomb's header: 300^3 cells (31 million with the mips; 2.4 GB of payload,
+    // which zeros compress to some 70 KB) is over the default limit, refused before the
+    // payload is looked at.
+    add(
+        "cells-over-the-default-limit",
+        forge(&|p| {
+            let mut dims = [300u32; 3];
+            let mut cell = 0.1;
+            p.header.levels.clear();
+            loop {
+                p.header.levels.push(texel::LevelHeader { dims, cell });
+                if dims == [1, 1, 1] {
+                    break;
+                }
+                dims = dims.map(|d| d.div_ceil(2));
+                cell *= 2.0;
+            }
+            let n = p.header.levels.len();
+            let e = &mut p.extension2;
+            e.directional.resize(n, e.directional[0]);
+            e.self_shadow.resize(n, e.self_shadow[0]);
+            e.wood_weight.resize(n, e.wood_weight[0]);
+        }),
+        "the texture's cell count (all levels) is 30859767, over the limit of 4194304",
+    );
     add(
         "cell-negative",
         forge(&|p| p.header.levels[0].cell = -0.5),

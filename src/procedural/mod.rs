@@ -8,7 +8,6 @@ pub mod trees;
 
 use std::path::Path;
 
-use sha2::{Digest, Sha256};
 use trees::Deciduous;
 
 use crate::bake::{self, BakeSettings};
@@ -17,7 +16,7 @@ use crate::formats::texel;
 use crate::place::Instance;
 use crate::provenance::SourceFile;
 use crate::species::{
-    AutumnColour, ColourKey, Form, FractionKey, LeafHabit, LeafOut, Light, Seasons, Traits,
+    AutumnColor, ColorKey, Form, FractionKey, LeafHabit, LeafOut, Light, Seasons, Traits,
 };
 
 const GENERATOR: &str = "texel-forest procedural fixtures";
@@ -57,23 +56,18 @@ pub fn fixture_files() -> Vec<(String, Vec<u8>)> {
 /// The golden `.texel` (`fixtures/formats/conifer-8.texel`): the conifer fixture baked at 8
 /// cells, its source recorded as it lies relative to `fixtures/formats/`.
 pub fn golden_texel(conifer_glb: &Path) -> anyhow::Result<Vec<u8>> {
-    let bytes = std::fs::read(conifer_glb)?;
     let model = crate::import::load(conifer_glb)?;
-    let mut t = bake::bake(
-        &model.mesh,
-        &BakeSettings {
-            resolution: 8,
-            fine: 32,
-            ..BakeSettings::default()
-        },
-    )?;
-    let sha256: [u8; 32] = Sha256::digest(&bytes).into();
-    t.info.sources = vec![SourceFile {
-        path: "../trees/conifer.glb".into(),
-        sha256,
-        bytes: bytes.len() as u64,
-    }];
-    t.info.inputs_sha256 = Sha256::digest(sha256).into();
+    let settings = BakeSettings {
+        resolution: 8,
+        fine: 32,
+        ..BakeSettings::default()
+    };
+    // Recorded as it lies from `formats/`, beside the trees' directory.
+    let formats = conifer_glb
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join("../formats");
+    let t = bake::bake_model(&model, &settings, &formats)?;
     Ok(texel::encode(&t)?)
 }
 
@@ -107,15 +101,15 @@ fn golden_beech() -> SpeciesRecord {
             light: Light::ShadeTolerant,
             leaf_habit: LeafHabit::Deciduous,
             leaf_out: LeafOut::Successive,
-            autumn_colour: AutumnColour::Yellow,
+            autumn_color: AutumnColor::Yellow,
         },
         seasons: Seasons {
             foliage: vec![
-                ColourKey {
+                ColorKey {
                     day: 120.0,
                     albedo: [0.05, 0.12, 0.03],
                 },
-                ColourKey {
+                ColorKey {
                     day: 300.0,
                     albedo: [0.25, 0.12, 0.03],
                 },
@@ -160,10 +154,10 @@ fn golden_pine() -> SpeciesRecord {
             light: Light::SunLoving,
             leaf_habit: LeafHabit::Evergreen,
             leaf_out: LeafOut::Simultaneous,
-            autumn_colour: AutumnColour::None,
+            autumn_color: AutumnColor::None,
         },
         seasons: Seasons {
-            foliage: vec![ColourKey {
+            foliage: vec![ColorKey {
                 day: 1.0,
                 albedo: [0.04, 0.08, 0.03],
             }],

@@ -23,6 +23,10 @@ pub struct Exr {
     pub clamped: usize,
 }
 
+/// Most bytes a render holds per pixel: the film's layers, the pixels the tiles hand back, and
+/// the EXR being encoded (checked with [`crate::limits::check_memory`] before a render starts).
+pub const BYTES_PER_PIXEL: u64 = 192;
+
 /// Largest finite half float.
 const HALF_MAX: f32 = 65504.0;
 

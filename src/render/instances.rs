@@ -19,7 +19,7 @@ use crate::geom::{Aabb, Bvh, NodeContent, Ray, box_corners, gamma};
 
 /// A placed tree in the renderer's frame.
 #[derive(Clone, Copy, Debug)]
-pub struct Instance {
+pub struct TreeTransform {
     /// Index into the scene's looks (species on the day).
     pub look: u16,
     /// Index into [`Instances`]' model boxes.
@@ -30,7 +30,7 @@ pub struct Instance {
     pub scale: f32,
 }
 
-impl Instance {
+impl TreeTransform {
     /// Model-space point of a renderer-frame point.
     #[inline]
     pub fn to_model(&self, p: Vec3) -> Vec3 {
@@ -92,7 +92,7 @@ impl Instance {
 /// Every instance, its model's box, and the hierarchy over their world boxes.
 #[derive(Clone, Debug)]
 pub struct Instances {
-    list: Vec<Instance>,
+    list: Vec<TreeTransform>,
     /// Per model: its box in model space.
     model_boxes: Vec<Aabb>,
     bvh: Bvh,
@@ -100,7 +100,7 @@ pub struct Instances {
 
 impl Instances {
     /// `list`'s instances of models whose model-space boxes are `model_boxes`.
-    pub fn new(list: Vec<Instance>, model_boxes: Vec<Aabb>) -> Instances {
+    pub fn new(list: Vec<TreeTransform>, model_boxes: Vec<Aabb>) -> Instances {
         let boxes: Vec<Aabb> = list
             .iter()
             .map(|i| {
@@ -118,7 +118,7 @@ impl Instances {
     }
 
     #[inline]
-    pub fn get(&self, i: u32) -> &Instance {
+    pub fn get(&self, i: u32) -> &TreeTransform {
         &self.list[i as usize]
     }
 

@@ -35,7 +35,7 @@
 
 use glam::Vec3;
 
-use super::instances::{Instance, Intervals};
+use super::instances::{Intervals, TreeTransform};
 use super::scene::Scene;
 use super::shading::{Radiance, shade, shade_ground, sun_radiance};
 use crate::geom::Ray;
@@ -89,7 +89,7 @@ impl Active {
     /// Instance `i` as `ray` meets it (leaving at `exit`), where the ray's footprint is
     /// `footprint` metres: the mip level whose cells match it, and the ray in that level's cells.
     fn new(scene: &Scene, i: u32, ray: &Ray, exit: f32, footprint: f32, lod_bias: f32) -> Active {
-        let inst: &Instance = scene.instances.get(i);
+        let inst: &TreeTransform = scene.instances.get(i);
         let texel = &scene.texels[scene.looks[inst.look as usize].texel];
         let cell0 = texel.levels[0].cell as f32;
         let wanted = (footprint / inst.scale / cell0).max(1.0).log2() + lod_bias;
@@ -99,7 +99,7 @@ impl Active {
 
     /// Instance `i` as `ray` meets it, read at mip level `level`.
     fn at_level(scene: &Scene, i: u32, ray: &Ray, exit: f32, level: usize) -> Active {
-        let inst: &Instance = scene.instances.get(i);
+        let inst: &TreeTransform = scene.instances.get(i);
         let texel = &scene.texels[scene.looks[inst.look as usize].texel];
         let cell = texel.levels[level].cell as f32;
         let origin = texel.origin().as_vec3();

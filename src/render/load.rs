@@ -12,6 +12,7 @@ use glam::{DVec3, Vec3};
 use super::scene::TreeMesh;
 use super::{Look, Placed};
 use crate::bake;
+use crate::formats::instances::SpeciesRecord;
 use crate::formats::{container, instances, texel};
 use crate::import::{self, Model};
 use crate::input::MAX_GLTF;
@@ -95,83 +96,22 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let mut dependencies = vec![path.to_path_buf()];
 
-    // The terrain as recorded, every file of it (the glTF, its buffers and images) unchanged.
-    let terrain_path = match request.terrain {
-        Some(t) => t.to_path_buf(),
-        None => {
-            let files = provenance::verify_all(&forest.info.terrain, &dir, PLACED, MAX_GLTF)
-                .map_err(|e| stale(path, e, "re-run texel place"))?;
-            files[0].clone()
-        }
-    };
-    let terrain = import::load_surface(&terrain_path, "to render as a terrain", &request.limits)
-        .map_err(|e| file_error(&terrain_path, e))?;
+    let terrain = load_terrain(request, &forest, &dir)?;
     dependencies.extend(terrain.sources.iter().map(|s| s.path.clone()));
 
-    let mut texels: Vec<Texel> = Vec::new();
-    let mut texel_paths: Vec<PathBuf> = Vec::new();
-    let mut loaded: HashMap<PathBuf, usize> = HashMap::new();
-    let mut load_texel = |rel: &str, sha: &[u8; 32]| -> Result<usize, LoadError> {
-        let file = dir.join(rel);
-        if let Some(&i) = loaded.get(&file) {
-            return Ok(i);
-        }
-        // Errors name the forest that refers to the texture, then the texture.
-        let bytes = container::read_file(&file).map_err(|e| file_error(path, e))?;
-        provenance::verify(&file, &bytes, sha, PLACED)
-            .map_err(|e| stale(path, e, "re-run texel place"))?;
-        let t = texel::decode_with(&bytes, &request.limits)
-            .map_err(|e| file_error(path, Named(file.clone(), Box::new(e))))?;
-        let minor = container::preamble(&bytes).map_or(0, |p| p.minor);
-        if minor < texel::RENDER_MINOR {
-            return Err(LoadError::Mismatch {
-                file: file.clone(),
-                message: format!(
-                    "texel 1.{minor} was baked before the renderer's foliage model (texel 1.{}: \
-                     leaf normals, self-shadowing); re-bake it with texel bake",
-                    texel::RENDER_MINOR
-                ),
-            });
-        }
-        texels.push(t);
-        texel_paths.push(file.clone());
-        loaded.insert(file.clone(), texels.len() - 1);
-        dependencies.push(file);
-        Ok(texels.len() - 1)
-    };
-    let mut looks = Vec::new();
-    for s in &forest.info.species {
-        let leaf_fraction = s.seasons.leaf_fraction(request.day) as f32;
-        let albedo = s.seasons.albedo(request.day).map(|c| c as f32);
-        // A bare deciduous tree draws its leafless texture where it has one.
-        let (texel, foliage) = match (&s.leafless_texel, &s.leafless_sha256) {
-            (Some(rel), Some(sha)) if leaf_fraction <= 0.0 => (load_texel(rel, sha)?, 0.0),
-            _ => (load_texel(&s.texel, &s.texel_sha256)?, leaf_fraction),
-        };
-        looks.push(Look {
-            texel,
-            foliage,
-            foliage_albedo: Vec3::from(albedo),
-        });
-    }
-    // Heights were scaled for the texel's model: a rebaked texel must still match.
-    for (s, look) in forest.info.species.iter().zip(&looks) {
-        let info = &texels[look.texel].info;
-        let height = info.model_max[1] - info.model_min[1];
-        if look.foliage > 0.0 && (height - s.model_height).abs() > 1e-6 * s.model_height.max(1.0) {
-            return Err(LoadError::Mismatch {
-                file: path.to_path_buf(),
-                message: format!(
-                    "species {:?}: the texel's model is {height} tall, the forest was placed for {}",
-                    s.name, s.model_height
-                ),
-            });
-        }
-    }
+    let mut textures = Textures::new(path, &dir, &request.limits);
+    let looks = forest
+        .info
+        .species
+        .iter()
+        .map(|s| textures.look(s, request.day))
+        .collect::<Result<Vec<_>, _>>()?;
+    check_heights(path, &forest, &looks, &textures.texels)?;
+    dependencies.extend(textures.paths.iter().cloned());
     let meshes = if request.meshes {
         Some(tree_meshes(
-            &texels,
-            &texel_paths,
+            &textures.texels,
+            &textures.paths,
             &request.limits,
             &mut dependencies,
         )?)
@@ -190,13 +130,127 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
         .collect();
     Ok(LoadedScene {
         forest,
-        texels,
+        texels: textures.texels,
         looks,
         placed,
         terrain,
         meshes,
         dependencies,
     })
+}
+
+/// The terrain: the one asked for, or the one the forest recorded, every file of it (the glTF,
+/// its buffers and images) unchanged since.
+fn load_terrain(
+    request: &SceneRequest,
+    forest: &instances::Forest,
+    dir: &Path,
+) -> Result<Model, LoadError> {
+    let terrain_path = match request.terrain {
+        Some(t) => t.to_path_buf(),
+        None => {
+            let files = provenance::verify_all(&forest.info.terrain, dir, PLACED, MAX_GLTF)
+                .map_err(|e| stale(request.forest, e, "re-run texel place"))?;
+            files[0].clone()
+        }
+    };
+    import::load_surface(&terrain_path, "to render as a terrain", &request.limits)
+        .map_err(|e| file_error(&terrain_path, e))
+}
+
+/// The textures a forest names, each read once, checked against the forest's record and
+/// refused if older than the renderer's foliage model.
+struct Textures<'a> {
+    forest: &'a Path,
+    dir: &'a Path,
+    limits: &'a Limits,
+    texels: Vec<Texel>,
+    /// Where each texel was read, in `texels` order.
+    paths: Vec<PathBuf>,
+    index: HashMap<PathBuf, usize>,
+}
+
+impl<'a> Textures<'a> {
+    fn new(forest: &'a Path, dir: &'a Path, limits: &'a Limits) -> Self {
+        Textures {
+            forest,
+            dir,
+            limits,
+            texels: Vec::new(),
+            paths: Vec::new(),
+            index: HashMap::new(),
+        }
+    }
+
+    /// How species `s` looks on `day`: its foliage colour and leaf fraction, and its texture
+    /// (the leafless one when it is bare and has one).
+    fn look(&mut self, s: &SpeciesRecord, day: f64) -> Result<Look, LoadError> {
+        let leaf_fraction = s.seasons.leaf_fraction(day) as f32;
+        let albedo = s.seasons.albedo(day).map(|c| c as f32);
+        let (texel, foliage) = match (&s.leafless_texel, &s.leafless_sha256) {
+            (Some(rel), Some(sha)) if leaf_fraction <= 0.0 => (self.texel(rel, sha)?, 0.0),
+            _ => (self.texel(&s.texel, &s.texel_sha256)?, leaf_fraction),
+        };
+        Ok(Look {
+            texel,
+            foliage,
+            foliage_albedo: Vec3::from(albedo),
+        })
+    }
+
+    /// The index of the texture at `rel` (relative to the forest) whose SHA-256 the forest
+    /// recorded as `sha`. Errors name the forest that refers to the texture, then the texture.
+    fn texel(&mut self, rel: &str, sha: &[u8; 32]) -> Result<usize, LoadError> {
+        let file = self.dir.join(rel);
+        if let Some(&i) = self.index.get(&file) {
+            return Ok(i);
+        }
+        let forest = self.forest;
+        let bytes = container::read_file(&file).map_err(|e| file_error(forest, e))?;
+        provenance::verify(&file, &bytes, sha, PLACED)
+            .map_err(|e| stale(forest, e, "re-run texel place"))?;
+        let t = texel::decode_with(&bytes, self.limits)
+            .map_err(|e| file_error(forest, Named(file.clone(), Box::new(e))))?;
+        let minor = container::preamble(&bytes).map_or(0, |p| p.minor);
+        if minor < texel::RENDER_MINOR {
+            return Err(LoadError::Mismatch {
+                file,
+                message: format!(
+                    "texel 1.{minor} was baked before the renderer's foliage model (texel 1.{}: \
+                     leaf normals, self-shadowing); re-bake it with texel bake",
+                    texel::RENDER_MINOR
+                ),
+            });
+        }
+        self.texels.push(t);
+        self.paths.push(file.clone());
+        self.index.insert(file, self.texels.len() - 1);
+        Ok(self.texels.len() - 1)
+    }
+}
+
+/// Heights were scaled for each texel's model when the forest was placed: a rebaked texel
+/// must still match.
+fn check_heights(
+    path: &Path,
+    forest: &instances::Forest,
+    looks: &[Look],
+    texels: &[Texel],
+) -> Result<(), LoadError> {
+    for (s, look) in forest.info.species.iter().zip(looks) {
+        let info = &texels[look.texel].info;
+        let height = info.model_max[1] - info.model_min[1];
+        if look.foliage > 0.0 && (height - s.model_height).abs() > 1e-6 * s.model_height.max(1.0) {
+            return Err(LoadError::Mismatch {
+                file: path.to_path_buf(),
+                message: format!(
+                    "species {:?}: the texel's model is {height} tall, the forest was placed for {}",
+                    s.name, s.model_height
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The polygon model each texel was baked from (its first recorded source, relative to the

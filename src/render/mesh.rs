@@ -10,7 +10,7 @@
 
 use glam::Vec3;
 
-use super::instances::Instance;
+use super::instances::TreeTransform;
 use super::scene::{Scene, TreeMesh};
 use super::shading::{Radiance, shade, shade_ground, sun_radiance};
 use crate::geom::{Ray, TriangleHit, barycentric_point, offset_origin};
@@ -42,7 +42,7 @@ fn present(scene: &Scene, i: u32, tree: &TreeMesh, t: u32, w: [f32; 3], key: u64
     covers(&tree.mesh, t, w, key)
 }
 
-fn tree_of<'a>(scene: &'a Scene, inst: &Instance) -> &'a TreeMesh {
+fn tree_of<'a>(scene: &'a Scene, inst: &TreeTransform) -> &'a TreeMesh {
     &scene.meshes[scene.looks[inst.look as usize].texel]
 }
 

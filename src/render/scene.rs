@@ -7,7 +7,7 @@ use crate::geom::{Aabb, Ray, TriangleBvh, TriangleHit, barycentric_point, offset
 use crate::import::Mesh;
 use crate::volume::Texel;
 
-use super::instances::{Instance, Instances};
+use super::instances::{Instances, TreeTransform};
 
 /// How a species looks on the rendered day.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -181,11 +181,11 @@ impl Scene {
                 }
             })
             .collect();
-        let instances: Vec<Instance> = placed
+        let instances: Vec<TreeTransform> = placed
             .iter()
             .map(|p| {
                 let (sin, cos) = p.rotation.sin_cos();
-                Instance {
+                TreeTransform {
                     look: p.look,
                     model: looks[p.look as usize].texel as u32,
                     position: (p.position - origin).as_vec3(),

@@ -757,7 +757,7 @@ fn leaf_moments_turn_with_the_instance() {
     };
     for angle in [0.0f32, 0.7, 2.0, -2.9] {
         let (sin, cos) = angle.sin_cos();
-        let inst = super::instances::Instance {
+        let inst = super::instances::TreeTransform {
             look: 0,
             model: 0,
             position: Vec3::ZERO,
