@@ -229,6 +229,66 @@ impl Level {
     }
 }
 
+/// A level whose density queries skip empty space. Per cell `i`, it keeps whether the
+/// trilinear stencil whose lowest corner is `i` (the eight cells [`Level::trilinear`] reads at
+/// any point whose lower neighbours are `i`) holds density of either part. Trees are mostly
+/// air: a query that looks there first reads no cell of an empty stencil, whose density is
+/// exactly 0 whatever the weights.
+pub struct Sparse<'a> {
+    pub level: &'a Level,
+    stencils: Vec<bool>,
+}
+
+impl<'a> Sparse<'a> {
+    pub fn new(level: &'a Level) -> Sparse<'a> {
+        let [nx, ny, nz] = level.dims;
+        let filled = |i: usize| level.density[0][i] != 0.0 || level.density[1][i] != 0.0;
+        let mut stencils = vec![false; level.cell_count()];
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    stencils[level.index(x, y, z)] = (z..=(z + 1).min(nz - 1)).any(|z| {
+                        (y..=(y + 1).min(ny - 1)).any(|y| {
+                            (x..=(x + 1).min(nx - 1)).any(|x| filled(level.index(x, y, z)))
+                        })
+                    });
+                }
+            }
+        }
+        Sparse { level, stencils }
+    }
+
+    /// [`Level::density_at`], the same values bit for bit, without reading the cells of an
+    /// empty stencil.
+    #[inline]
+    pub fn density_at(&self, c: Vec3) -> [f32; 2] {
+        let d = self.level.dims;
+        let lower = |v: f32, n: usize| ((v - 0.5).clamp(0.0, (n - 1) as f32) as usize).min(n - 1);
+        let inside = c.is_finite()
+            && c.cmpge(Vec3::ZERO).all()
+            && c.x <= d[0] as f32
+            && c.y <= d[1] as f32
+            && c.z <= d[2] as f32;
+        if inside
+            && !self.stencils[self.level.index(
+                lower(c.x, d[0]),
+                lower(c.y, d[1]),
+                lower(c.z, d[2]),
+            )]
+        {
+            return [0.0; 2];
+        }
+        self.level.density_at(c)
+    }
+}
+
+impl std::ops::Deref for Sparse<'_> {
+    type Target = Level;
+    fn deref(&self) -> &Level {
+        self.level
+    }
+}
+
 /// What one point of a texture holds, per part (`[wood, foliage]`).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fetch {
@@ -377,6 +437,35 @@ impl Texel {
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    /// Skipping empty stencils changes no value: a sparse level (a few dense cells, one of
+    /// them at a corner, one of wood alone) answers exactly as the level does, everywhere in
+    /// and around its box.
+    #[test]
+    fn sparse_queries_equal_the_levels_bit_for_bit() {
+        let mut l = Level::empty([7, 5, 6], 0.25);
+        for (i, part, v) in [
+            (0, 1, 3.0),
+            (l.index(3, 2, 4), 0, 0.5),
+            (l.index(6, 4, 5), 1, 7.0),
+        ] {
+            l.density[part][i] = v;
+        }
+        let sparse = Sparse::new(&l);
+        let mut rng = crate::rng::Stream::new(3, 0);
+        let mut skipped = 0;
+        for _ in 0..20_000 {
+            let c = Vec3::new(
+                rng.unit() as f32 * 9.0 - 1.0,
+                rng.unit() as f32 * 7.0 - 1.0,
+                rng.unit() as f32 * 8.0 - 1.0,
+            );
+            let (a, b) = (l.density_at(c), sparse.density_at(c));
+            assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "at {c}");
+            skipped += usize::from(a == [0.0; 2]);
+        }
+        assert!(skipped > 10_000, "mostly empty: {skipped}");
+    }
 
     /// A field linear in x, y and z is reproduced exactly between cell centres, held at the
     /// edge value in the outer half cell, and empty outside; every channel agrees.

@@ -22,12 +22,17 @@ struct Measured {
     view_bias: f64,
 }
 
+/// Rays per cell edge for the axis views: 36 a cell. Thin branches cover few cells, and at 9
+/// rays a cell the mesh's own hit count is noisy by some 5 % (the bare tree seen along z
+/// measured +5.5 % at 9 rays a cell, +0.8 % at 64).
+const AXIS_RAYS: usize = 8;
+
 fn measure(texel: &Texel, mesh: &import::Mesh, views: usize) -> Measured {
     let tracer = MeshTracer::new(mesh);
     let frame = Frame::of(texel);
     let extinction = |p, d| texel.extinction(0, p, d) as f64;
     let axis = [DVec3::X, DVec3::Y, DVec3::Z]
-        .map(|d| compare(&tracer, frame, d, 3, &extinction).coverage_error());
+        .map(|d| compare(&tracer, frame, d, AXIS_RAYS, &extinction).coverage_error());
     let columns = (0..3).map(|a| axis_columns(&tracer, texel, a, 8).pixel_rmse);
     let dirs = random_directions(views, 1);
     Measured {
@@ -72,10 +77,7 @@ fn the_texture_casts_the_mesh_silhouette_along_the_axes_and_random_views_for_the
         let texel = bake::bake(&model.mesh, &BakeSettings::default()).unwrap();
         let m = measure(&texel, &model.mesh, 12);
         report(tree, &m);
-        // Measured (32 cells, fine 256): axes within 2.6 %, views within 1.4 %, but the bare
-        // tree's thin branches seen along z (+5.5 % of a coverage of 0.07: a few rays).
-        let tolerance = if tree.contains("bare") { 0.07 } else { 0.04 };
-        assert_coverage(tree, &m, tolerance);
+        assert_coverage(tree, &m, 0.04);
     }
 }
 
@@ -94,10 +96,11 @@ fn the_texture_casts_the_mesh_silhouette_along_the_axes_and_random_views_for_the
     }
 }
 
-/// Every mip level blocks what level 0 blocks, along the axes and over random views: the
-/// whole tree's coverage no longer grows with level (it grew by up to 88 % at the coarsest
-/// before each level's form was fitted). Measured over the coarsest level's box, which coarse
-/// levels fill out to: worst 1.6 % for these fixtures on the axes, 1.9 % over the views.
+/// Every mip level blocks what level 0 blocks, within 2 %, along the axes and over random
+/// views: the whole tree's coverage no longer grows with level (it grew by up to 88 % at the
+/// coarsest before each level's form was fitted). Measured over the coarsest level's box,
+/// which coarse levels fill out to, at 9 rays a cell (at 1 the bare tree's thin branches made
+/// level 0's own estimate 3 % off): worst 0.8 % on the axes, 1.4 % over the views.
 #[test]
 fn every_mip_level_keeps_the_whole_trees_coverage() {
     for tree in FIXTURE_TREES {
@@ -116,7 +119,7 @@ fn every_mip_level_keeps_the_whole_trees_coverage() {
         let coverage = |level: usize| -> Vec<f64> {
             let extinction = |p, d| texel.extinction(level, p, d) as f64;
             dirs.iter()
-                .map(|&d| compare(&tracer, frame, d, 1, &extinction).coverage_texture)
+                .map(|&d| compare(&tracer, frame, d, 3, &extinction).coverage_texture)
                 .collect()
         };
         let base = coverage(0);
@@ -129,11 +132,11 @@ fn every_mip_level_keeps_the_whole_trees_coverage() {
                 &rel[..3]
             );
             assert!(
-                rel[..3].iter().all(|r| r.abs() < 0.035),
+                rel[..3].iter().all(|r| r.abs() < 0.02),
                 "{tree} level {level}: axes {:?}",
                 &rel[..3]
             );
-            assert!(views.abs() < 0.035, "{tree} level {level}: views {views}");
+            assert!(views.abs() < 0.02, "{tree} level {level}: views {views}");
         }
     }
 }
@@ -377,6 +380,116 @@ fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
                     assert!((r[c] - 1.0).abs() < 0.12, "{tree} {g} {lod_bias}: {r:?}");
                     let shading = r[c] / r[3];
                     assert!((shading - 1.0).abs() < 0.1, "{tree} {g} {lod_bias}: {r:?}");
+                }
+            }
+        }
+    }
+}
+
+/// Two trees whose crowns overlap, as a forest's neighbours do. The renderer sums their
+/// extinctions and so multiplies their transmittances: it treats them as independent media
+/// (Vicini et al. 2021 on the error this makes where media are correlated). Measured per view,
+/// on the meshes alone: how far the pair's transmittance per cell-sized pixel is from the
+/// product of each tree's (the error independence makes, whatever the texture); printed next
+/// to the texture pair's coverage error against the mesh pair's, and one tree's. Measured
+/// (conifer and broadleaf, 0.5 to 1 crown apart, the second turned 90°): under 1 % of the
+/// pair's coverage (mostly under 0.3 %) wherever the crowns are not exactly in line; +5.9 %
+/// for two identical cones exactly in line with the eye, whose silhouettes' edges coincide
+/// cell for cell (a forest's varied heights and positions make that case rare). Next to the
+/// other parts of the error budget it does not matter.
+#[test]
+fn overlapping_trees_block_as_independent_media() {
+    use texel_forest::geom::Ray;
+    for tree in ["trees/conifer.glb", "trees/broadleaf.gltf"] {
+        let model = import::load(&fixture(tree)).unwrap();
+        let texel = bake::bake(&model.mesh, &BakeSettings::default()).unwrap();
+        let one = Frame::of(&texel);
+        let c = (one.lo + one.hi) * 0.5;
+        let width = one.hi.x - one.lo.x;
+        // The second tree turned a quarter about the vertical through the box's centre.
+        let turn = |v: DVec3| DVec3::new(v.z, v.y, -v.x);
+        let unturn = |v: DVec3| DVec3::new(-v.z, v.y, v.x);
+        for (apart, aside) in [(0.5, 0.0), (0.5, 0.3), (1.0, 0.3), (0.75, 0.6)] {
+            let offset = DVec3::new(apart * width, 0.0, aside * width);
+            let mut second = model.mesh.clone();
+            for p in &mut second.positions {
+                *p = (c + turn(p.as_dvec3() - c) + offset).as_vec3();
+            }
+            let mut pair = model.mesh.clone();
+            let base = pair.positions.len() as u32;
+            pair.positions.extend(&second.positions);
+            pair.uvs.extend(&second.uvs);
+            pair.colors.extend(&second.colors);
+            pair.triangles
+                .extend(second.triangles.iter().map(|t| import::Triangle {
+                    vertices: t.vertices.map(|v| v + base),
+                    ..*t
+                }));
+            let (first, second, both) = (
+                MeshTracer::new(&model.mesh),
+                MeshTracer::new(&second),
+                MeshTracer::new(&pair),
+            );
+            let frame = Frame {
+                lo: one.lo.min(one.lo + offset),
+                hi: one.hi.max(one.hi + offset),
+                pixel: one.pixel,
+            };
+            let extinction = |p: DVec3, d: DVec3| {
+                let q = c + unturn(p - offset - c);
+                (texel.extinction(0, p, d) + texel.extinction(0, q, unturn(d))) as f64
+            };
+            for d in [DVec3::X, DVec3::new(1.0, 0.3, 0.6).normalize()] {
+                // Independence, on the meshes alone: per pixel, the mean of "passes both"
+                // against the product of the means.
+                let (e1, e2) = (
+                    d.cross(if d.y.abs() < 0.9 { DVec3::Y } else { DVec3::X })
+                        .normalize(),
+                    d,
+                );
+                let e2 = e2.cross(e1);
+                let radius = (frame.hi - frame.lo).length() * 0.5;
+                let centre = (frame.lo + frame.hi) * 0.5;
+                let n = (2.0 * radius / frame.pixel).ceil() as i64;
+                let k = 4;
+                let (mut gap, mut covered) = (0.0, 0.0);
+                for pa in -n / 2..n / 2 {
+                    for pb in -n / 2..n / 2 {
+                        let (mut p1, mut p2, mut p12) = (0.0, 0.0, 0.0);
+                        for s in 0..k * k {
+                            let a = (pa as f64 + ((s % k) as f64 + 0.5) / k as f64) * frame.pixel;
+                            let b = (pb as f64 + ((s / k) as f64 + 0.5) / k as f64) * frame.pixel;
+                            let ray = Ray {
+                                origin: (centre + e1 * a + e2 * b - d * (radius + 1.0)).as_vec3(),
+                                dir: d.as_vec3(),
+                            };
+                            let key = (pa * 7919 + pb * 104_729 + s) as u64;
+                            let pass1 = !first.occluded(&ray, 0.0, f32::INFINITY, key);
+                            let pass2 = !second.occluded(&ray, 0.0, f32::INFINITY, key);
+                            p1 += f64::from(u8::from(pass1));
+                            p2 += f64::from(u8::from(pass2));
+                            p12 += f64::from(u8::from(pass1 && pass2));
+                        }
+                        let m = (k * k) as f64;
+                        gap += p12 / m - (p1 / m) * (p2 / m);
+                        covered += 1.0 - p12 / m;
+                    }
+                }
+                let independence = gap / covered;
+                let paired = compare(&both, frame, d, 4, &extinction).coverage_error();
+                let single = compare(&first, one, d, 4, &|p, d| texel.extinction(0, p, d) as f64)
+                    .coverage_error();
+                println!(
+                    "{tree:<22} {apart:.2} crowns apart, {aside:.1} aside, view {:+.2?}: independence off by {independence:+.4} of the pair's coverage; coverage error pair {paired:+.4}, one tree {single:+.4}",
+                    d.to_array()
+                );
+                // Exactly in line (the same cone twice, one behind the other) is the worst
+                // case, printed; anything else is a forest's case.
+                if aside > 0.0 {
+                    assert!(
+                        independence.abs() < 0.01,
+                        "{tree} {apart} {aside} {d}: {independence}"
+                    );
                 }
             }
         }

@@ -39,12 +39,12 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::calibrate::{bisect_log, midpoints};
+use super::calibrate::{bisect_log, midpoints, newton_bracketed};
 use crate::geom::{Ray, barycentric_point, offset_origin};
 use crate::import::Mesh;
 use crate::mesh_tracer::MeshTracer;
 use crate::rng;
-use crate::volume::{Level, SELF_SHADOW_ANGLES};
+use crate::volume::{Level, SELF_SHADOW_ANGLES, Sparse};
 
 /// The largest factor a fit may give.
 const K_MAX: f64 = 16.0;
@@ -160,7 +160,7 @@ fn mesh_seen(tracer: &MeshTracer, leaves: &[LeafHit], l: DVec3) -> Seen {
 
 /// The level's extinction `[wood, foliage]` at model-space point `p`, times `factor` (the
 /// extinction scale and the directional factor).
-fn extinction(level: &Level, origin: DVec3, p: DVec3, factor: f64) -> [f64; 2] {
+fn extinction(level: &Sparse, origin: DVec3, p: DVec3, factor: f64) -> [f64; 2] {
     let c = (p - origin) / level.cell;
     let d = level.density_at(Vec3::new(c.x as f32, c.y as f32, c.z as f32));
     d.map(|x| f64::from(x) * factor)
@@ -175,7 +175,7 @@ struct ViewSample {
 }
 
 /// The view ray `o - t v` marched through the level (the midpoint rule of [`midpoints`]).
-fn march_view(level: &Level, origin: DVec3, scale: f64, o: DVec3, v: DVec3) -> Vec<ViewSample> {
+fn march_view(level: &Sparse, origin: DVec3, scale: f64, o: DVec3, v: DVec3) -> Vec<ViewSample> {
     let d = -v;
     let factor = scale * f64::from(level.directional_factor(d.as_vec3()));
     let (ts, step) = midpoints(level, origin, o, d);
@@ -208,7 +208,7 @@ pub fn foliage_chance(sigma: [f64; 2], w: f64) -> f64 {
 }
 
 /// Optical depth from `p` along `d` to the level's box, per unit extinction scale.
-fn depth_from(level: &Level, origin: DVec3, p: DVec3, d: DVec3, factor: f64) -> f64 {
+fn depth_from(level: &Sparse, origin: DVec3, p: DVec3, d: DVec3, factor: f64) -> f64 {
     let (ts, step) = midpoints(level, origin, p, d);
     if step == 0.0 {
         return 0.0;
@@ -225,7 +225,7 @@ fn depth_from(level: &Level, origin: DVec3, p: DVec3, d: DVec3, factor: f64) -> 
 /// points drawn from the samples' weights times the chance that the foliage scatters there
 /// (wood weighted by `wood`), each as (weight, point).
 fn texture_points(
-    level: &Level,
+    level: &Sparse,
     (origin, scale, wood): (DVec3, f64, f64),
     o: DVec3,
     v: DVec3,
@@ -262,29 +262,21 @@ fn fit(points: &[(f64, f64)], visible: f64) -> f64 {
     if total <= 0.0 || !visible.is_finite() {
         return 1.0;
     }
+    // The mean visibility and its slope, convex and decreasing in k.
     let mean = |k: f64| {
-        points
-            .iter()
-            .map(|&(w, tau)| w * (-k * tau).exp())
-            .sum::<f64>()
-            / total
+        let (m, slope) = points.iter().fold((0.0, 0.0), |(m, slope), &(w, tau)| {
+            let e = w * (-k * tau).exp();
+            (m + e, slope - tau * e)
+        });
+        (m / total, slope / total)
     };
-    if mean(0.0) <= visible {
+    if mean(0.0).0 <= visible {
         return 0.0;
     }
-    if mean(K_MAX) >= visible {
+    if mean(K_MAX).0 >= visible {
         return K_MAX;
     }
-    let (mut lo, mut hi) = (0.0, K_MAX);
-    for _ in 0..50 {
-        let mid = 0.5 * (lo + hi);
-        if mean(mid) > visible {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
+    newton_bracketed(mean, visible, (0.0, K_MAX), 0.0)
 }
 
 /// What a level must show and shadow to look like its mesh (see the module's documentation).
@@ -313,6 +305,8 @@ pub fn fit_sight(
     let coarsest = levels.last().expect("a mip chain has levels");
     let hi = origin + DVec3::from(coarsest.dims.map(|d| d as f64)) * coarsest.cell;
     let spacing = levels[0].cell * RAY_SPACING;
+    let levels: Vec<Sparse> = levels.iter().map(Sparse::new).collect();
+    let levels = levels.as_slice();
     let rays = |v: DVec3, pair: u64| super::calibrate::lattice(origin, hi, -v, spacing, pair);
     let weights = wood_weights(
         &tracer,
@@ -354,7 +348,7 @@ pub fn fit_sight(
 fn wood_weights(
     tracer: &MeshTracer,
     is_foliage: &[bool],
-    levels: &[Level],
+    levels: &[Sparse],
     (origin, scale): (DVec3, f64),
     rays: &dyn Fn(DVec3, u64) -> Vec<(DVec3, f64)>,
 ) -> Vec<f64> {
@@ -415,7 +409,7 @@ fn wood_weights(
 fn self_shadow_factors(
     tracer: &MeshTracer,
     mesh: (&[[Vec3; 3]], &[bool]),
-    levels: &[Level],
+    levels: &[Sparse],
     (origin, scale): (DVec3, f64),
     wood_weights: &[f64],
     rays: &dyn Fn(DVec3, u64) -> Vec<(DVec3, f64)>,
