@@ -199,6 +199,8 @@ pub struct Comparison {
     /// Per colour channel, the image's mean over the reference's: under 1 darker, over 1
     /// brighter (bias, where RMSE mixes bias and noise); `None` where the reference sums to 0.
     pub mean_ratio: [Option<f64>; 3],
+    /// The same for alpha: coverage bias (under 1, the image lets more through).
+    pub alpha_ratio: Option<f64>,
 }
 
 impl Comparison {
@@ -238,10 +240,11 @@ impl Comparison {
         s += &self.alpha.line("alpha");
         let ratio = |r: Option<f64>| r.map_or("-".to_string(), |r| format!("{r:.4}"));
         s += &format!(
-            "  mean ratio R {}  G {}  B {}\n",
+            "  mean ratio R {}  G {}  B {}  A {}\n",
             ratio(self.mean_ratio[0]),
             ratio(self.mean_ratio[1]),
-            ratio(self.mean_ratio[2])
+            ratio(self.mean_ratio[2]),
+            ratio(self.alpha_ratio)
         );
         s
     }
@@ -366,7 +369,7 @@ pub fn check_same_window(
 pub fn compare(a: &Rgba, b: &Rgba, inside: impl Fn(usize) -> bool) -> Comparison {
     let (mut rgb, mut alpha) = (Sums::default(), Sums::default());
     let (mut pixels, mut non_finite) = (0, 0);
-    let (mut sum_a, mut sum_b) = ([0.0f64; 3], [0.0f64; 3]);
+    let (mut sum_a, mut sum_b) = ([0.0f64; 4], [0.0f64; 4]);
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         if !inside(i) {
             continue;
@@ -377,10 +380,12 @@ pub fn compare(a: &Rgba, b: &Rgba, inside: impl Fn(usize) -> bool) -> Comparison
             continue;
         }
         let at = [i % a.width, i / a.width];
-        for c in 0..3 {
-            rgb.add(p[c], q[c], at);
+        for c in 0..4 {
             sum_a[c] += f64::from(p[c]);
             sum_b[c] += f64::from(q[c]);
+        }
+        for c in 0..3 {
+            rgb.add(p[c], q[c], at);
         }
         alpha.add(p[3], q[3], at);
     }
@@ -390,6 +395,7 @@ pub fn compare(a: &Rgba, b: &Rgba, inside: impl Fn(usize) -> bool) -> Comparison
         rgb: rgb.metrics(),
         alpha: alpha.metrics(),
         mean_ratio: std::array::from_fn(|c| (sum_b[c] != 0.0).then(|| sum_a[c] / sum_b[c])),
+        alpha_ratio: (sum_b[3] != 0.0).then(|| sum_a[3] / sum_b[3]),
     }
 }
 

@@ -74,6 +74,8 @@ impl Default for March {
 #[derive(Clone, Copy)]
 struct Active {
     instance: u32,
+    /// Index into the scene's texels.
+    model: u32,
     exit: f32,
     level: usize,
     /// Cell coordinates at t = 0 and per unit t.
@@ -83,6 +85,9 @@ struct Active {
     sigma_scale: f32,
     /// Segment length in this texture (m).
     step: f32,
+    /// Whether the ray's brick of this texture (`volume::Occupancy`) can hold density, and
+    /// until where along the ray that holds (`-inf`: not looked at yet).
+    span: (bool, f32),
 }
 
 impl Active {
@@ -109,13 +114,25 @@ impl Active {
         let directional = texel.levels[level].directional_factor(dir);
         Active {
             instance: i,
+            model: inst.model,
             exit,
             level,
             c0: (inst.to_model(ray.origin) - origin) / cell,
             dc: dir / cell,
             sigma_scale: texel.info.extinction_scale as f32 * directional / inst.scale,
             step: cell * inst.scale,
+            span: (true, f32::NEG_INFINITY),
         }
+    }
+
+    /// Where this texture can next hold density along the ray from `t`, if the ray is in an
+    /// empty brick at `t`; `None` where it may hold some.
+    fn empty_until(&mut self, scene: &Scene, t: f32) -> Option<f32> {
+        if t >= self.span.1 {
+            let occupancy = &scene.occupancy[self.model as usize][self.level];
+            self.span = occupancy.span(self.c0, self.dc, t, self.exit);
+        }
+        (!self.span.0).then_some(self.span.1)
     }
 }
 
@@ -168,6 +185,16 @@ impl<'a> Walk<'a> {
 
     fn retire(&mut self, t: f32) {
         self.active.retain(|a| a.exit > t);
+    }
+
+    /// Where the ray may next meet density, if every active texture is empty at `t` (and no
+    /// instance begins before): the march jumps there, skipping only what is exactly empty.
+    fn empty_until(&mut self, t: f32) -> Option<f32> {
+        let mut until = self.next_entry().unwrap_or(f32::INFINITY);
+        for a in &mut self.active {
+            until = until.min(a.empty_until(self.scene, t)?);
+        }
+        (until > t).then_some(until)
     }
 
     /// Brings the walk to `t` and returns where the next segment starts: `t` itself while
@@ -231,11 +258,29 @@ pub fn transmittance(
         let sigma_scale = a.sigma_scale * factor;
         let look = &scene.looks[scene.instances.get(i).look as usize];
         let level = &scene.texels[look.texel].levels[a.level];
+        let occupancy = &scene.occupancy[look.texel][a.level];
         let foliage = look.foliage;
         let length = a.step * march.step;
         let mut t = enter;
         let mut segment = 0u64;
+        // Up to where the march need not look at the bricks again (empty ones are jumped
+        // over; segments run on across occupied ones as they would without bricks).
+        let mut looked = t;
         while t < exit {
+            if t >= looked {
+                let (occupied, until) = occupancy.span(a.c0, a.dc, t, exit);
+                // Whole segments that lie in empty bricks are jumped over, with their draws:
+                // the segments and samples left are exactly those of a march that skips
+                // nothing, so the estimate is unchanged, only cheaper.
+                let empty = ((until - t) / length).floor();
+                if !occupied && empty >= 1.0 {
+                    t += empty * length;
+                    segment += empty as u64;
+                    continue;
+                }
+                // At t's precision no progress: march the rest of the box plainly.
+                looked = if until > t { until } else { exit };
+            }
             // A step below t's precision would never advance: take the rest in one.
             let end = if t + length > t {
                 (t + length).min(exit)
@@ -298,6 +343,21 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     SURFACES.with_borrow_mut(|s| s.clear());
     while let Some(start) = walk.advance(t, t_max) {
         t = start;
+        if let Some(next) = walk.empty_until(t) {
+            // Whole segments in empty space are jumped over with their draws, so the samples
+            // left are exactly those of a march that skips nothing.
+            let length = walk
+                .active
+                .iter()
+                .map(|a| a.step)
+                .fold(f32::INFINITY, f32::min);
+            let empty = ((next - t) / (length * march.step)).floor();
+            if empty >= 1.0 {
+                t += empty * length * march.step;
+                segment += empty as u64;
+                continue;
+            }
+        }
         let (end, ts) = segment_end(
             &walk,
             t,

@@ -5,7 +5,7 @@ use glam::{DVec3, Vec3};
 
 use crate::geom::{Aabb, Ray, TriangleBvh, TriangleHit, barycentric_point, offset_origin};
 use crate::import::Mesh;
-use crate::volume::Texel;
+use crate::volume::{Occupancy, Texel};
 
 use super::instances::{Instances, TreeTransform};
 
@@ -139,6 +139,8 @@ pub struct Scene {
     /// World position of the renderer frame's origin (the eye).
     pub origin: DVec3,
     pub texels: Vec<Texel>,
+    /// Per texel and level, which bricks can hold density: marches jump over the rest.
+    pub occupancy: Vec<Vec<Occupancy>>,
     pub looks: Vec<Look>,
     /// The trees, each an instance of its look's texel (whose grid box, the union over
     /// levels, is the instance's model box).
@@ -195,9 +197,14 @@ impl Scene {
                 }
             })
             .collect();
+        let occupancy = texels
+            .iter()
+            .map(|t| t.levels.iter().map(Occupancy::of).collect())
+            .collect();
         Scene {
             origin,
             texels,
+            occupancy,
             looks,
             instances: Instances::new(instances, model_boxes),
             meshes: Vec::new(),

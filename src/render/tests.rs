@@ -405,6 +405,71 @@ fn the_stratified_estimator_converges_as_samples_grow() {
     assert!(errors[2] < 0.5 * errors[0], "{errors:?}");
 }
 
+/// Jumping over empty bricks skips only whole segments that hold nothing, with their random
+/// draws: the same image (to rounding), for one dense cell alone in a large empty box (16x
+/// fewer samples) and for the fog ball (whose bricks are all occupied: nothing to skip).
+#[test]
+fn skipping_empty_space_changes_the_work_not_the_image() {
+    let mut l = Level::empty([32, 24, 28], 0.125);
+    let i = l.index(20, 9, 6);
+    l.density[1][i] = 40.0;
+    l.albedo[1][i] = [0.3, 0.6, 0.2];
+    l.gradient[1] = sobel::gradient(&l.density[1], l.dims, 0.125);
+    let mut texel = uniform_texel([32, 24, 28], 0.125, DVec3::splat(-2.0), 0.0, [0.5; 3]);
+    texel.levels = mip_chain(l, 1.0);
+    let (fog, fog_camera) = fog_ball();
+    let lone = Scene::new(
+        DVec3::new(0.8, 0.3, 6.0),
+        vec![texel],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        None,
+        Lighting {
+            sun: Sun::from_angles(200.0, 40.0, std::f32::consts::PI),
+            shading: Shading::default(),
+            sky: None,
+        },
+    );
+    let lone_camera =
+        Camera::look_at(lone.origin, DVec3::new(0.56, -0.8, -1.2), 12.0, 24, 24).unwrap();
+    for (name, mut scene, camera, fewer) in [
+        ("one cell", lone, lone_camera, 0.1),
+        ("fog ball", fog, fog_camera, 1.0),
+    ] {
+        let settings = RenderSettings {
+            spp: 64,
+            ..RenderSettings::default()
+        };
+        let skipping = render(&scene, &camera, &settings, &|_| {});
+        scene.occupancy = scene
+            .texels
+            .iter()
+            .map(|t| {
+                t.levels
+                    .iter()
+                    .map(crate::volume::Occupancy::dense)
+                    .collect()
+            })
+            .collect();
+        let every = render(&scene, &camera, &settings, &|_| {});
+        let sum = |f: &super::Film, c: usize| f.rgba.iter().map(|p| f64::from(p[c])).sum::<f64>();
+        for c in [1, 3] {
+            let (a, b) = (sum(&skipping, c), sum(&every, c));
+            println!("{name}: channel {c} summed {a} skipping, {b} marching every cell");
+        }
+        for c in [1, 3] {
+            let (a, b) = (sum(&skipping, c), sum(&every, c));
+            assert!(
+                a > 0.0 && (a - b).abs() < 1e-6 * b,
+                "{name} channel {c}: {a} vs {b}"
+            );
+        }
+        let (a, b) = (skipping.work().0, every.work().0);
+        println!("{name}: {a} volume samples per pixel skipping, {b} marching every cell");
+        assert!(a <= fewer * b, "{name}: {a} vs {b}");
+    }
+}
+
 #[test]
 fn russian_roulette_on_shadow_rays_saves_them_without_bias() {
     let (scene, camera) = fog_ball();
