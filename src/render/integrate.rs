@@ -249,56 +249,58 @@ pub fn transmittance(
     let opaque = -march.cutoff.ln();
     let lod_bias = march.lod_bias + march.shadow_lod;
     let mut depth = 0.0f32;
-    scene.instances.visit(&ray, t_max, |i, _, _| {
-        let (enter, exit) = scene.instances.interval(i, &ray, t_max)?;
-        let (a, factor) = match own.iter().find(|o| o.instance == i) {
-            Some(o) => (Active::at_level(scene, i, &ray, exit, o.level), o.factor),
-            None => (Active::new(scene, i, &ray, exit, footprint, lod_bias), 1.0),
-        };
-        let sigma_scale = a.sigma_scale * factor;
-        let look = &scene.looks[scene.instances.get(i).look as usize];
-        let level = &scene.texels[look.texel].levels[a.level];
-        let occupancy = &scene.occupancy[look.texel][a.level];
-        let foliage = look.foliage;
-        let length = a.step * march.step;
-        let mut t = enter;
-        let mut segment = 0u64;
-        // Up to where the march need not look at the bricks again (empty ones are jumped
-        // over; segments run on across occupied ones as they would without bricks).
-        let mut looked = t;
-        while t < exit {
-            if t >= looked {
-                let (occupied, until) = occupancy.span(a.c0, a.dc, t, exit);
-                // Whole segments that lie in empty bricks are jumped over, with their draws:
-                // the segments and samples left are exactly those of a march that skips
-                // nothing, so the estimate is unchanged, only cheaper.
-                let empty = ((until - t) / length).floor();
-                if !occupied && empty >= 1.0 {
-                    t += empty * length;
-                    segment += empty as u64;
-                    continue;
-                }
-                // At t's precision no progress: march the rest of the box plainly.
-                looked = if until > t { until } else { exit };
-            }
-            // A step below t's precision would never advance: take the rest in one.
-            let end = if t + length > t {
-                (t + length).min(exit)
-            } else {
-                exit
+    scene
+        .sun_beam
+        .visit(&scene.instances, &ray, t_max, |i, _, _| {
+            let (enter, exit) = scene.instances.interval(i, &ray, t_max)?;
+            let (a, factor) = match own.iter().find(|o| o.instance == i) {
+                Some(o) => (Active::at_level(scene, i, &ray, exit, o.level), o.factor),
+                None => (Active::new(scene, i, &ray, exit, footprint, lod_bias), 1.0),
             };
-            let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
-            let d = level.density_at(a.c0 + a.dc * ts);
-            depth += sigma_scale * (d[0] + foliage * d[1]) * (end - t);
-            if depth > opaque {
-                // Stops the traversal: nothing further can make the light visible.
-                return Some(0.0);
+            let sigma_scale = a.sigma_scale * factor;
+            let look = &scene.looks[scene.instances.get(i).look as usize];
+            let level = &scene.texels[look.texel].levels[a.level];
+            let occupancy = &scene.occupancy[look.texel][a.level];
+            let foliage = look.foliage;
+            let length = a.step * march.step;
+            let mut t = enter;
+            let mut segment = 0u64;
+            // Up to where the march need not look at the bricks again (empty ones are jumped
+            // over; segments run on across occupied ones as they would without bricks).
+            let mut looked = t;
+            while t < exit {
+                if t >= looked {
+                    let (occupied, until) = occupancy.span(a.c0, a.dc, t, exit);
+                    // Whole segments that lie in empty bricks are jumped over, with their draws:
+                    // the segments and samples left are exactly those of a march that skips
+                    // nothing, so the estimate is unchanged, only cheaper.
+                    let empty = ((until - t) / length).floor();
+                    if !occupied && empty >= 1.0 {
+                        t += empty * length;
+                        segment += empty as u64;
+                        continue;
+                    }
+                    // At t's precision no progress: march the rest of the box plainly.
+                    looked = if until > t { until } else { exit };
+                }
+                // A step below t's precision would never advance: take the rest in one.
+                let end = if t + length > t {
+                    (t + length).min(exit)
+                } else {
+                    exit
+                };
+                let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
+                let d = level.density_at(a.c0 + a.dc * ts);
+                depth += sigma_scale * (d[0] + foliage * d[1]) * (end - t);
+                if depth > opaque {
+                    // Stops the traversal: nothing further can make the light visible.
+                    return Some(0.0);
+                }
+                segment += 1;
+                t = end;
             }
-            segment += 1;
-            t = end;
-        }
-        None
-    });
+            None
+        });
     if depth > opaque { 0.0 } else { (-depth).exp() }
 }
 

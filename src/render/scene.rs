@@ -7,7 +7,7 @@ use crate::geom::{Aabb, Ray, TriangleBvh, TriangleHit, barycentric_point, offset
 use crate::import::Mesh;
 use crate::volume::{Occupancy, Texel};
 
-use super::instances::{Instances, TreeTransform};
+use super::instances::{Beam, Instances, TreeTransform};
 
 /// How a species looks on the rendered day.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -145,6 +145,8 @@ pub struct Scene {
     /// The trees, each an instance of its look's texel (whose grid box, the union over
     /// levels, is the instance's model box).
     pub instances: Instances,
+    /// The instances as shadow rays see them: along the sun's direction.
+    pub sun_beam: Beam,
     /// Per texel, the polygon model it was baked from, for the mesh method (else empty).
     pub meshes: Vec<TreeMesh>,
     pub ground: Option<Ground>,
@@ -201,12 +203,14 @@ impl Scene {
             .iter()
             .map(|t| t.levels.iter().map(Occupancy::of).collect())
             .collect();
+        let instances = Instances::new(instances, model_boxes);
         Scene {
             origin,
             texels,
             occupancy,
             looks,
-            instances: Instances::new(instances, model_boxes),
+            sun_beam: Beam::new(&instances, sun.direction),
+            instances,
             meshes: Vec::new(),
             ground: ground.map(|m| Ground::new(m, origin)),
             sun,
