@@ -305,7 +305,7 @@ impl LoadedScene {
 
     /// Height of the terrain's surface above (x, z), if any.
     pub fn ground_height(&self, x: f64, z: f64) -> Option<f64> {
-        crate::terrain::Terrain::from_model(self.terrain.clone()).height_at(x, z)
+        crate::terrain::Terrain::surface_height(&self.terrain.mesh, x, z)
     }
 
     /// The box to frame by default: the forest's region, from the lowest tree base (or the

@@ -68,10 +68,73 @@ impl Terrain {
         Some(top - hit.t as f64)
     }
 
+    /// The highest point of `mesh`'s surface above (x, z), if any: one query without building
+    /// a hierarchy (the renderer's check of where the eye is), a pass over the triangles.
+    pub fn surface_height(mesh: &crate::import::Mesh, x: f64, z: f64) -> Option<f64> {
+        let mut best: Option<f64> = None;
+        for t in &mesh.triangles {
+            let [a, b, c] = t.vertices.map(|v| mesh.positions[v as usize].as_dvec3());
+            // Barycentric coordinates of (x, z) in the triangle's shadow on the ground.
+            let det = (b.x - a.x) * (c.z - a.z) - (c.x - a.x) * (b.z - a.z);
+            if det == 0.0 || !det.is_finite() {
+                continue;
+            }
+            let u = ((x - a.x) * (c.z - a.z) - (c.x - a.x) * (z - a.z)) / det;
+            let v = ((b.x - a.x) * (z - a.z) - (x - a.x) * (b.z - a.z)) / det;
+            if u < 0.0 || v < 0.0 || u + v > 1.0 {
+                continue;
+            }
+            let y = a.y + u * (b.y - a.y) + v * (c.y - a.y);
+            best = Some(best.map_or(y, |h| h.max(y)));
+        }
+        best
+    }
+
     /// The cell size matching the mesh's own resolution: the side of a square cell that a
     /// regular grid of the same number of triangles over the same ground would have.
     pub fn natural_cell(&self) -> f64 {
         let area = (self.hi.x - self.lo.x) * (self.hi.z - self.lo.z);
         (area / (self.triangles.len().max(1) as f64 / 2.0)).sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::{Vec2, Vec3, Vec4};
+
+    use crate::import::{Material, Mesh, Triangle};
+
+    /// A ridge of two sloping triangles: the surface's height where the point's shadow falls
+    /// in either, the higher where they overlap, none off the mesh.
+    #[test]
+    fn surface_height_is_the_highest_triangle_above_the_point() {
+        let positions = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(10.0, 10.0, 0.0),
+            Vec3::new(0.0, 0.0, 10.0),
+            Vec3::new(10.0, 20.0, 10.0),
+        ];
+        let mesh = Mesh {
+            uvs: vec![Vec2::ZERO; 4],
+            colors: vec![Vec4::ONE; 4],
+            positions,
+            triangles: vec![
+                Triangle {
+                    vertices: [0, 1, 2],
+                    material: 0,
+                },
+                Triangle {
+                    vertices: [1, 3, 2],
+                    material: 0,
+                },
+            ],
+            materials: vec![Material::default()],
+            textures: vec![],
+        };
+        let h = |x, z| super::Terrain::surface_height(&mesh, x, z);
+        assert!((h(2.0, 2.0).unwrap() - 2.0).abs() < 1e-9);
+        assert!((h(8.0, 8.0).unwrap() - 14.0).abs() < 1e-9);
+        assert_eq!(h(-1.0, 5.0), None);
+        assert_eq!(h(5.0, 11.0), None);
     }
 }
