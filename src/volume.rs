@@ -204,7 +204,10 @@ impl Level {
         std::array::from_fn(|p| (0..8).map(|k| self.density[p][idx[k]] * w[k]).sum())
     }
 
-    /// Every channel at `c`, from one set of trilinear weights.
+    /// What a renderer's sample reads at `c`, from one set of trilinear weights: both
+    /// densities, and a part's gradient only where it has density; the wood's albedo and the
+    /// foliage's leaf moments likewise. The foliage's baked albedo is not read (a species'
+    /// seasonal colour replaces it): `albedo[1]` stays zero.
     #[inline]
     pub fn fetch(&self, c: Vec3) -> Fetch {
         let Some((idx, w)) = self.trilinear(c) else {
@@ -212,17 +215,30 @@ impl Level {
         };
         let mut f = Fetch::default();
         for p in 0..2 {
+            let density = &self.density[p];
+            f.density[p] = (0..8).map(|k| density[idx[k]] * w[k]).sum();
+        }
+        for p in 0..2 {
+            if f.density[p] <= 0.0 {
+                continue;
+            }
+            let gradient = &self.gradient[p];
             for k in 0..8 {
-                let i = idx[k];
-                f.density[p] += self.density[p][i] * w[k];
-                f.gradient[p] += Vec3::from(self.gradient[p][i]) * w[k];
-                f.albedo[p] += Vec3::from(self.albedo[p][i]) * w[k];
+                f.gradient[p] += Vec3::from(gradient[idx[k]]) * w[k];
             }
         }
-        for k in 0..8 {
-            let leaves = &self.leaves[idx[k]];
-            for (sum, m) in f.leaves.iter_mut().zip(leaves) {
-                *sum += m * w[k];
+        if f.density[0] > 0.0 {
+            let albedo = &self.albedo[0];
+            for k in 0..8 {
+                f.albedo[0] += Vec3::from(albedo[idx[k]]) * w[k];
+            }
+        }
+        if f.density[1] > 0.0 {
+            for k in 0..8 {
+                let leaves = &self.leaves[idx[k]];
+                for (sum, m) in f.leaves.iter_mut().zip(leaves) {
+                    *sum += m * w[k];
+                }
             }
         }
         f
