@@ -1,12 +1,15 @@
-//! Geometry shared by every stage: rays, boxes, triangles and the bounding volume hierarchy.
+//! Geometry shared by every stage: rays, boxes, triangles, the bounding volume hierarchy, and
+//! beams (items binned across one direction, for the sun's rays).
 
 mod aabb;
+mod beam;
 mod bvh;
 mod offset;
 mod triangle;
 mod triangles;
 
 pub use aabb::Aabb;
+pub use beam::Beam;
 pub use bvh::{Bvh, NodeContent};
 pub use offset::{barycentric_point, gamma, offset_origin};
 pub use triangle::{TriangleHit, intersect_triangle};

@@ -200,116 +200,23 @@ impl Instances {
     }
 }
 
-/// The instances as rays along one direction `w` see them (the sun's: every shadow ray of a
-/// frame). Each instance's box is projected on the plane across `w` and binned in a grid
-/// there. A ray along `w` keeps its place across `w`, so it stays in one cell: the instances
-/// it may meet are that cell's whose boxes reach past the ray's origin along `w`, found
-/// without descending a hierarchy. Within a cell they are sorted by how far along `w` their
-/// boxes reach, so those wholly behind the origin are passed over by a binary search.
+/// The instances as rays along one direction see them (the sun's: every shadow ray of a
+/// frame): a [`crate::geom::Beam`] of their world boxes.
 #[derive(Clone, Debug)]
-pub struct Beam {
-    w: Vec3,
-    across: [Vec3; 2],
-    /// The grid's lower corner across `w`, its cell size, and its cells along each axis.
-    lo: [f32; 2],
-    cell: f32,
-    dims: [usize; 2],
-    /// Per cell, its entries `starts[c]..starts[c + 1]` of `entries`.
-    starts: Vec<u32>,
-    /// Per entry: the instance, and its box's extent across `w` (`u0, u1, v0, v1`) and along
-    /// it (`d0, d1`).
-    entries: Vec<(u32, [f32; 6])>,
-}
-
-/// Most cells of a beam's grid (memory: 4 bytes each, with an entry per cell an instance
-/// covers).
-const BEAM_CELLS: usize = 1 << 22;
+pub struct Beam(crate::geom::Beam);
 
 impl Beam {
     /// The beam of `instances` along the unit direction `w`.
     pub fn new(instances: &Instances, w: Vec3) -> Beam {
-        let (a, b) = w.any_orthonormal_pair();
-        // Per instance with a finite box: its extent across and along `w`.
-        let extents: Vec<(u32, [f32; 6])> = instances
+        let corners: Vec<[Vec3; 8]> = instances
             .list
             .iter()
-            .enumerate()
-            .filter_map(|(index, i)| {
-                let corners = Instances::world_corners(i, instances.model_boxes[i.model as usize]);
-                let mut e = [0.0f32; 6];
-                for (k, axis) in [a, b, w].into_iter().enumerate() {
-                    let along = corners.map(|c| c.dot(axis));
-                    e[2 * k] = along.into_iter().fold(f32::INFINITY, f32::min);
-                    e[2 * k + 1] = along.into_iter().fold(f32::NEG_INFINITY, f32::max);
-                }
-                e.iter().all(|x| x.is_finite()).then_some((index as u32, e))
-            })
+            .map(|i| Instances::world_corners(i, instances.model_boxes[i.model as usize]))
             .collect();
-        let mut beam = Beam {
+        Beam(crate::geom::Beam::new(
             w,
-            across: [a, b],
-            lo: [0.0; 2],
-            cell: 1.0,
-            dims: [0, 0],
-            starts: vec![0],
-            entries: Vec::new(),
-        };
-        if extents.is_empty() {
-            return beam;
-        }
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        let mut size = 0.0f64;
-        for (_, e) in &extents {
-            for k in 0..2 {
-                lo[k] = lo[k].min(e[2 * k]);
-                hi[k] = hi[k].max(e[2 * k + 1]);
-            }
-            size += f64::from((e[1] - e[0]).max(e[3] - e[2]));
-        }
-        // Cells about one box across, as many as memory allows.
-        let span = [hi[0] - lo[0], hi[1] - lo[1]];
-        let mut cell = ((size / extents.len() as f64) as f32).max(1e-3);
-        while (span[0] / cell).ceil() * (span[1] / cell).ceil() > BEAM_CELLS as f32 {
-            cell *= 2.0;
-        }
-        let dims = span.map(|s| ((s / cell).ceil() as usize).max(1));
-        let range = |x0: f32, x1: f32, k: usize| {
-            let c = |x: f32| (((x - lo[k]) / cell).floor().max(0.0) as usize).min(dims[k] - 1);
-            c(x0)..=c(x1)
-        };
-        let mut counts = vec![0u32; dims[0] * dims[1] + 1];
-        for (_, e) in &extents {
-            for y in range(e[2], e[3], 1) {
-                for x in range(e[0], e[1], 0) {
-                    counts[x + dims[0] * y] += 1;
-                }
-            }
-        }
-        let mut starts = vec![0u32; counts.len()];
-        for c in 1..counts.len() {
-            starts[c] = starts[c - 1] + counts[c - 1];
-        }
-        let mut fill = starts.clone();
-        let mut entries = vec![(0u32, [0.0f32; 6]); starts[dims[0] * dims[1]] as usize];
-        for &(index, e) in &extents {
-            for y in range(e[2], e[3], 1) {
-                for x in range(e[0], e[1], 0) {
-                    let c = x + dims[0] * y;
-                    entries[fill[c] as usize] = (index, e);
-                    fill[c] += 1;
-                }
-            }
-        }
-        for c in 0..dims[0] * dims[1] {
-            entries[starts[c] as usize..starts[c + 1] as usize]
-                .sort_unstable_by(|p, q| p.1[5].total_cmp(&q.1[5]));
-        }
-        beam.lo = lo;
-        beam.cell = cell;
-        beam.dims = dims;
-        beam.starts = starts;
-        beam.entries = entries;
-        beam
+            corners.iter().enumerate().map(|(i, c)| (i as u32, &c[..])),
+        ))
     }
 
     /// [`Instances::visit`] for a ray along the beam's direction (any other goes through the
@@ -321,40 +228,12 @@ impl Beam {
         t_max: f32,
         mut f: impl FnMut(u32, &Ray, f32) -> Option<f32>,
     ) {
-        if ray.dir != self.w {
+        if !self.0.carries(ray) {
             return instances.visit(ray, t_max, f);
         }
-        if self.entries.is_empty() {
-            return;
-        }
-        let (u, v, d) = (
-            ray.origin.dot(self.across[0]),
-            ray.origin.dot(self.across[1]),
-            ray.origin.dot(self.w),
-        );
-        let at = |x: f32, k: usize| {
-            let c = ((x - self.lo[k]) / self.cell).floor();
-            (c >= 0.0 && c < self.dims[k] as f32).then_some(c as usize)
-        };
-        let (Some(x), Some(y)) = (at(u, 0), at(v, 1)) else {
-            return;
-        };
-        let c = x + self.dims[0] * y;
-        let cell = &self.entries[self.starts[c] as usize..self.starts[c + 1] as usize];
-        // Boxes that end before the origin along `w` cannot be met.
-        let first = cell.partition_point(|e| e.1[5] < d);
-        let mut t_max = t_max;
-        for &(i, e) in &cell[first..] {
-            if u < e[0] || u > e[1] || v < e[2] || v > e[3] || e[4] - d > t_max {
-                continue;
-            }
-            if let Some(t) = f(i, &instances.get(i).local_ray(ray), t_max) {
-                if t <= 0.0 {
-                    return;
-                }
-                t_max = t_max.min(t);
-            }
-        }
+        self.0.visit(ray, t_max, |i, t_max| {
+            f(i, &instances.get(i).local_ray(ray), t_max)
+        });
     }
 }
 

@@ -3,11 +3,13 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::geom::{Aabb, Ray, TriangleBvh, TriangleHit, barycentric_point, offset_origin};
+use crate::geom::{
+    Aabb, Beam, Ray, TriangleBvh, TriangleHit, barycentric_point, intersect_triangle, offset_origin,
+};
 use crate::import::Mesh;
 use crate::volume::{Occupancy, Texel};
 
-use super::instances::{Beam, Instances, TreeTransform};
+use super::instances::{self, Instances, TreeTransform};
 
 /// How a species looks on the rendered day.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,10 +86,14 @@ pub struct Ground {
     pub triangles: TriangleBvh,
     pub mesh: Mesh,
     corners: Vec<[Vec3; 3]>,
+    /// The triangles as rays towards the sun see them.
+    sun_beam: Beam,
 }
 
 impl Ground {
-    pub fn new(mesh: Mesh, origin: DVec3) -> Ground {
+    /// The terrain `mesh` in the frame of a camera at `origin`, lit from the unit direction
+    /// `sun`.
+    pub fn new(mesh: Mesh, origin: DVec3, sun: Vec3) -> Ground {
         let corners: Vec<[Vec3; 3]> = mesh
             .triangles
             .iter()
@@ -96,10 +102,15 @@ impl Ground {
                     .map(|v| (mesh.positions[v as usize].as_dvec3() - origin).as_vec3())
             })
             .collect();
+        let sun_beam = Beam::new(
+            sun,
+            corners.iter().enumerate().map(|(i, c)| (i as u32, &c[..])),
+        );
         Ground {
             triangles: TriangleBvh::new(corners.clone()),
             mesh,
             corners,
+            sun_beam,
         }
     }
 
@@ -108,7 +119,15 @@ impl Ground {
     }
 
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        self.triangles.occluded(ray, 0.0, t_max, |_, _| true)
+        if !self.sun_beam.carries(ray) {
+            return self.triangles.occluded(ray, 0.0, t_max, |_, _| true);
+        }
+        let mut hit = false;
+        self.sun_beam.visit(ray, t_max, |t, t_max| {
+            hit = intersect_triangle(ray, self.corners[t as usize], 0.0, t_max).is_some();
+            hit.then_some(0.0)
+        });
+        hit
     }
 
     /// Where a ray leaving the hit `hit` on triangle `t` (normal `n`) in direction `dir` may
@@ -146,7 +165,7 @@ pub struct Scene {
     /// levels, is the instance's model box).
     pub instances: Instances,
     /// The instances as shadow rays see them: along the sun's direction.
-    pub sun_beam: Beam,
+    pub sun_beam: instances::Beam,
     /// Per texel, the polygon model it was baked from, for the mesh method (else empty).
     pub meshes: Vec<TreeMesh>,
     pub ground: Option<Ground>,
@@ -209,10 +228,10 @@ impl Scene {
             texels,
             occupancy,
             looks,
-            sun_beam: Beam::new(&instances, sun.direction),
+            sun_beam: instances::Beam::new(&instances, sun.direction),
             instances,
             meshes: Vec::new(),
-            ground: ground.map(|m| Ground::new(m, origin)),
+            ground: ground.map(|m| Ground::new(m, origin, sun.direction)),
             sun,
             shading,
             sky,
