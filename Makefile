@@ -23,8 +23,9 @@ demo: $(TEXELS) $(VIEWS) $(FOREST)
 test:
 	$(CARGO) test --profile ci
 
+# Set TEXEL_BASELINE to another build's texel binary to time both in turn (render bench).
 bench:
-	$(CARGO) bench --bench bake --bench place --bench render
+	$(CARGO) bench --bench bake --bench place --bench render --bench million
 
 accuracy:
 	$(CARGO) run --release --example accuracy -- --anisotropy

@@ -1,13 +1,126 @@
 //! `make bench` (rendering): the demo forest (the fixture trees at 32 cells, about 20,000 of
-//! them on the fixture mountain) at 1280 x 720, 1 sample per pixel, framed as `make demo`
-//! frames it. Prints seconds and primary rays per second (target: under 30 s); then the same
-//! frame drawn from the polygon models (`--method mesh`) at 16 samples per pixel.
+//! them on the fixture mountain), framed as `make demo` frames it:
+//!
+//! - the demo frame at 1920 x 1080, 1 sample per pixel, texel method: seconds, volume samples
+//!   per pixel, and volume samples per second per core next to the limit, a trilinear lookup
+//!   marching a 32^3 texture in this process (the ratio says how far the renderer is from the
+//!   memory system);
+//! - the near view (`--eye -60,260,480 --target 0,240,300`, 960 x 540, 1 spp): seconds and
+//!   volume samples per pixel;
+//! - the demo frame at 1280 x 720, 16 spp, mesh method: seconds and samples per second.
+//!
+//! Every figure is the median of 3 whole `texel render` runs. With `TEXEL_BASELINE=path` (the
+//! `texel` binary of another build, e.g. the previous commit's) each run of this build is
+//! paired with one of that build on the same inputs, in turn, and the ratio printed: speed
+//! claims are ratios measured in the same run.
 
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
+use glam::{Vec3, vec3};
+use texel_forest::bake::{self, BakeSettings};
+use texel_forest::import;
+
+const RUNS: usize = 3;
+
+/// What one whole run printed and took.
+#[derive(Clone, Copy, Default)]
+struct Run {
+    seconds: f64,
+    samples_per_pixel: f64,
+    shadow_rays_per_pixel: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The number just before `after` in `text` (the summary line's figures).
+fn number_before(text: &str, after: &str) -> Option<f64> {
+    let head = &text[..text.find(after)?];
+    head.split_whitespace().last()?.parse().ok()
+}
+
+fn render(texel: &Path, dir: &Path, args: &[&str]) -> Run {
+    let start = Instant::now();
+    let o = Command::new(texel)
+        .arg("render")
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("texel runs");
+    let seconds = start.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    Run {
+        seconds,
+        samples_per_pixel: number_before(&err, "volume samples").unwrap_or(0.0),
+        shadow_rays_per_pixel: number_before(&err, "shadow rays per pixel").unwrap_or(0.0),
+    }
+}
+
+/// Medians of `RUNS` runs of this build, and of the baseline's where given, run in turn.
+fn measure(texel: &Path, baseline: Option<&Path>, dir: &Path, args: &[&str]) -> (Run, Option<Run>) {
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for _ in 0..RUNS {
+        a.push(render(texel, dir, args));
+        if let Some(base) = baseline {
+            b.push(render(base, dir, args));
+        }
+    }
+    let med = |runs: &[Run]| Run {
+        seconds: median(runs.iter().map(|r| r.seconds).collect()),
+        samples_per_pixel: median(runs.iter().map(|r| r.samples_per_pixel).collect()),
+        shadow_rays_per_pixel: median(runs.iter().map(|r| r.shadow_rays_per_pixel).collect()),
+    };
+    (med(&a), (!b.is_empty()).then(|| med(&b)))
+}
+
+fn versus(a: f64, b: Option<f64>) -> String {
+    b.map_or(String::new(), |b| {
+        format!("  (baseline {b:.2}: {:.2}x faster)", b / a)
+    })
+}
+
+/// Trilinear lookups per second on one core marching the fixture broadleaf at 32 cells along
+/// random rays, one lookup per cell: the memory system's limit for a texture march.
+fn trilinear_limit(root: &Path) -> f64 {
+    let model = import::load(&root.join("fixtures/trees/broadleaf.gltf")).expect("fixture");
+    let texel = bake::bake(&model.mesh, &BakeSettings::default()).expect("bakes");
+    let level = &texel.levels[0];
+    let dims = Vec3::from(level.dims.map(|d| d as f32));
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut unit = move || {
+        state = texel_forest::rng::mix64(state);
+        texel_forest::rng::unit(state) as f32
+    };
+    let rays: Vec<(Vec3, Vec3)> = (0..20_000)
+        .map(|_| {
+            let a = vec3(unit(), unit(), unit()) * dims;
+            let b = vec3(unit(), unit(), unit()) * dims;
+            (a, (b - a).normalize_or(Vec3::X))
+        })
+        .collect();
+    let (mut lookups, mut sum) = (0u64, 0.0f32);
+    let start = Instant::now();
+    while start.elapsed().as_secs_f64() < 1.0 {
+        for &(o, d) in &rays {
+            let mut c = o;
+            while c.cmpge(Vec3::ZERO).all() && c.cmple(dims).all() {
+                sum += level.fetch(c).density[1];
+                c += d;
+                lookups += 1;
+            }
+        }
+    }
+    std::hint::black_box(sum);
+    lookups as f64 / start.elapsed().as_secs_f64()
+}
+
 fn main() {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let texel = root.join("target/release/texel");
     let build = Command::new(env!("CARGO"))
         .args(["build", "--release", "--bin", "texel"])
@@ -15,6 +128,7 @@ fn main() {
         .status()
         .expect("cargo runs");
     assert!(build.success());
+    let baseline: Option<PathBuf> = std::env::var_os("TEXEL_BASELINE").map(PathBuf::from);
     let dir = std::env::temp_dir().join(format!("texel-bench-render-{}", std::process::id()));
     std::fs::create_dir_all(dir.join("trees")).expect("temp dir");
     let run = |args: &[&str]| {
@@ -52,36 +166,84 @@ fn main() {
         "forest.instances",
         "-q",
     ]);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!(
-        "threads: {}",
-        std::thread::available_parallelism().map_or(1, |n| n.get())
+        "cores: {cores}; medians of {RUNS} whole runs{}",
+        baseline
+            .as_ref()
+            .map_or(String::new(), |b| format!("; baseline {}", b.display()))
     );
-    let time = |extra: &[&str]| {
-        let mut args = vec![
-            "render",
-            "forest.instances",
-            "-o",
-            "forest.exr",
-            "--width",
-            "1280",
-            "--height",
-            "720",
-            "-q",
-        ];
-        args.extend_from_slice(extra);
-        let start = Instant::now();
-        run(&args);
-        start.elapsed().as_secs_f64()
-    };
-    let seconds = time(&[]);
+    let base = baseline.as_deref();
+    let limit = trilinear_limit(root);
+
+    let demo = [
+        "forest.instances",
+        "-o",
+        "demo.exr",
+        "--width",
+        "1920",
+        "--height",
+        "1080",
+    ];
+    let (a, b) = measure(&texel, base, &dir, &demo);
+    let per_core = a.samples_per_pixel * 1920.0 * 1080.0 / a.seconds / cores as f64;
     println!(
-        "render 1280x720, 1 spp, demo forest, texel method  {seconds:>7.2} s  {:>9.0} primary rays/s  (target < 30 s)",
-        1280.0 * 720.0 / seconds
+        "demo frame 1920x1080, 1 spp, texel  {:>7.2} s  {:>5.1} volume samples and {:.1} shadow rays per pixel{}",
+        a.seconds,
+        a.samples_per_pixel,
+        a.shadow_rays_per_pixel,
+        versus(a.seconds, b.map(|b| b.seconds))
     );
-    let seconds = time(&["--method", "mesh", "--spp", "16"]);
     println!(
-        "render 1280x720, 16 spp, demo forest, mesh method  {seconds:>7.2} s  {:>9.0} primary rays/s",
-        16.0 * 1280.0 * 720.0 / seconds
+        "  {:.2e} volume samples per second per core; trilinear lookups marching a 32^3 texture: {limit:.2e} per second on one core ({:.1}% of the limit)",
+        per_core,
+        100.0 * per_core / limit
+    );
+
+    let near = [
+        "forest.instances",
+        "-o",
+        "near.exr",
+        "--eye",
+        "-60,260,480",
+        "--target",
+        "0,240,300",
+        "--width",
+        "960",
+        "--height",
+        "540",
+    ];
+    let (a, b) = measure(&texel, base, &dir, &near);
+    println!(
+        "near view 960x540, 1 spp, texel      {:>7.2} s  {:>5.1} volume samples per pixel{}{}",
+        a.seconds,
+        a.samples_per_pixel,
+        b.map_or(String::new(), |b| format!(
+            " (baseline {:.1})",
+            b.samples_per_pixel
+        )),
+        versus(a.seconds, b.map(|b| b.seconds))
+    );
+
+    let mesh = [
+        "forest.instances",
+        "-o",
+        "mesh.exr",
+        "--width",
+        "1280",
+        "--height",
+        "720",
+        "--method",
+        "mesh",
+        "--spp",
+        "16",
+    ];
+    let (a, b) = measure(&texel, base, &dir, &mesh);
+    println!(
+        "demo frame 1280x720, 16 spp, mesh   {:>7.2} s  {:.2e} samples per second{}",
+        a.seconds,
+        16.0 * 1280.0 * 720.0 / a.seconds,
+        versus(a.seconds, b.map(|b| b.seconds))
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -290,6 +290,14 @@ pub struct CompareArgs {
     /// with `--aov canopy`, for the pixels where trees are.
     #[arg(long, value_name = "NAME", default_value = "A", requires = "mask")]
     pub mask_channel: String,
+    /// Decide the mask in blocks of N x N pixels: a whole block is inside when more than half
+    /// of its pixels are. A mask drawn from the reference's own matte favours the reference at
+    /// silhouettes (a render with softer edges than the reference's has less canopy and more
+    /// ground exactly there); at a block a few pixels wide, the mean ratio inside measures
+    /// brightness rather than edge sharpness.
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "mask",
+          value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub mask_block: u32,
     /// Print the measures as JSON.
     #[arg(long)]
     pub json: bool,

@@ -346,6 +346,28 @@ pub fn read_mask(
     Ok(inside)
 }
 
+/// `inside` (a `width` x `height` mask) decided in blocks of `block` x `block` pixels from the
+/// window's corner: every pixel of a block is inside when more than half of the block's pixels
+/// are (blocks cut by the right and bottom edges count their own pixels). `block` 1 is `inside`.
+pub fn block_mask(inside: &[bool], (width, height): (usize, usize), block: usize) -> Vec<bool> {
+    if block <= 1 {
+        return inside.to_vec();
+    }
+    let (bw, bh) = (width.div_ceil(block), height.div_ceil(block));
+    let mut count = vec![(0usize, 0usize); bw * bh];
+    for (i, &v) in inside.iter().enumerate() {
+        let c = &mut count[(i / width / block) * bw + (i % width) / block];
+        c.0 += usize::from(v);
+        c.1 += 1;
+    }
+    (0..inside.len())
+        .map(|i| {
+            let (n, of) = count[(i / width / block) * bw + (i % width) / block];
+            2 * n > of
+        })
+        .collect()
+}
+
 /// Checks that `a` and `b` (read from the named files) cover the same window.
 pub fn check_same_window(
     a: &Rgba,
@@ -417,6 +439,24 @@ pub fn heatmap(a: &Rgba, b: &Rgba, scale: f32) -> image::RgbImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Blocks go in or out whole, by majority; ragged edge blocks count their own pixels.
+    #[test]
+    fn block_masks_go_by_majority() {
+        // 5 x 2, blocks of 2: [0..2) x [0..2) has 3 of 4 in, [2..4) has 2 of 4 (not more than
+        // half), [4..5) has 2 of 2.
+        let inside = [
+            true, true, true, false, true, //
+            true, false, false, true, true,
+        ];
+        let got = block_mask(&inside, (5, 2), 2);
+        let want = [
+            true, true, false, false, true, //
+            true, true, false, false, true,
+        ];
+        assert_eq!(got, want);
+        assert_eq!(block_mask(&inside, (5, 2), 1), inside.to_vec());
+    }
 
     fn image(width: usize, height: usize, f: impl Fn(usize) -> [f32; 4]) -> Rgba {
         Rgba {

@@ -95,3 +95,12 @@ pub fn check_memory(bytes: u64, what: &str) -> Result<(), MemoryError> {
     let mut probe: Vec<u8> = Vec::new();
     probe.try_reserve_exact(n).map_err(|_| refused())
 }
+
+/// The most memory this process has held so far (its peak resident set), where the system
+/// says (Linux: `VmHWM` of `/proc/self/status`); `None` elsewhere.
+pub fn peak_memory() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}

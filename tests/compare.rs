@@ -152,6 +152,16 @@ fn compare_takes_a_mask_from_a_named_channel_and_reports_mean_ratios() {
         (ratio(0) - 0.9).abs() < 1e-6 && (ratio(2) - 1.1).abs() < 1e-6,
         "{j}"
     );
+    // In blocks of 4 the left half (canopy in every pixel) is in, the right half out; in
+    // blocks of 8 each block is half in, which is not more than half: none is in.
+    assert_eq!(
+        json(&["--mask-channel", "canopy.A", "--mask-block", "4"])["mask"]["pixels"],
+        16
+    );
+    assert_eq!(
+        json(&["--mask-channel", "canopy.A", "--mask-block", "8"])["mask"]["pixels"],
+        0
+    );
     // A channel the mask lacks is named in the error.
     let o = run(
         &[

@@ -1,7 +1,7 @@
 //! `texel compare`: the error of a render against a reference, as text or JSON, with an
 //! optional false-colour picture of where it lies.
 
-use texel_forest::compare::{Rgba, check_same_window, compare, heatmap, read_mask};
+use texel_forest::compare::{Rgba, block_mask, check_same_window, compare, heatmap, read_mask};
 use texel_forest::limits::Limits;
 use texel_forest::output::Outputs;
 
@@ -31,6 +31,7 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     let masked = match &args.mask {
         Some(path) => {
             let inside = read_mask(path, (a.width, a.height), &args.mask_channel, limits)?;
+            let inside = block_mask(&inside, (a.width, a.height), args.mask_block as usize);
             Some(compare(&a, &b, |i| inside[i]))
         }
         None => None,

@@ -51,7 +51,9 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         shading: Shading::default(),
         sky: args.sky.map(|s| DVec3::from(s).as_vec3()),
     };
+    let build_start = Instant::now();
     let mut scene = scene.into_scene(camera.eye, lighting);
+    let build = build_start.elapsed().as_secs_f64();
     scene.shadows = !args.no_shadows;
 
     let pixels = args.crop.map_or(
@@ -75,8 +77,10 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
             ),
             MethodArg::Mesh => ("meshes", format!("{shadow_rays:.1} shadow rays per pixel")),
         };
+        let memory = texel_forest::limits::peak_memory()
+            .map_or(String::new(), |b| format!(", peak memory {} MiB", b >> 20));
         super::summary(&format!(
-            "rendered {trees} trees from their {drawn_from}, {}x{} ({pixels} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} ({:.2} s in all)",
+            "rendered {trees} trees from their {drawn_from}, {}x{} ({pixels} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} (scene built in {build:.2} s, {:.2} s in all{memory})",
             args.width,
             args.height,
             args.spp,
