@@ -1,16 +1,29 @@
-//! A bounding volume hierarchy over any primitives that have boxes: binned surface-area
-//! heuristic build, stack traversal nearest child first. Primitives are tested by a closure,
-//! so the same tree serves triangles, instance boxes and terrain.
+//! A bounding volume hierarchy over any primitives that have boxes. Built as a binary tree by
+//! the binned surface-area heuristic, then collapsed into a tree of four-wide nodes that keep
+//! their children's boxes side by side (axis by axis), so one ray meets four boxes in one pass
+//! of straight-line arithmetic the compiler turns into vector instructions, and never
+//! re-derives a box from a pointer. Traversal visits children nearest first and drops those
+//! that start beyond the nearest hit found so far. Primitives are tested by a closure, so the
+//! same tree serves triangles, instance boxes and terrain.
 
 use glam::Vec3;
 
 use super::{Aabb, Ray};
 
 const BINS: usize = 12;
-const LEAF_SIZE: usize = 4;
+/// The most primitives a leaf holds.
+pub const LEAF_SIZE: usize = 4;
+const WIDTH: usize = 4;
+/// Below this depth of the binary build, splits are by surface area; deeper, by the median,
+/// which halves the count each time: the tree's depth stays below 48 + 32 whatever the input
+/// (and its build time n log n).
+const SAH_DEPTH: u32 = 48;
+/// Traversal's stack on the stack; deeper entries (rare: three per level) spill to the heap.
+const STACK: usize = 40;
 
+/// A node of the binary build.
 #[derive(Clone, Copy, Debug)]
-struct Node {
+struct Binary {
     bounds: Aabb,
     /// Leaf: first index into `order`; inner: index of the left child (right = left + 1).
     start: u32,
@@ -18,81 +31,143 @@ struct Node {
     count: u32,
 }
 
-/// What a node holds: two child nodes, or primitive indices.
+/// Four children: their boxes axis by axis (`lo[axis][k]`), and what each is. A slot with
+/// `count == 0` is the inner node `start`; `count > 0` the primitives `order[start..][..count]`;
+/// an unused slot has an empty box (+inf..-inf), which no ray enters, and `start == EMPTY`.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Wide {
+    lo: [[f32; WIDTH]; 3],
+    hi: [[f32; WIDTH]; 3],
+    start: [u32; WIDTH],
+    count: [u32; WIDTH],
+}
+
+const EMPTY: u32 = u32::MAX;
+
+impl Wide {
+    const UNUSED: Wide = Wide {
+        lo: [[f32::INFINITY; WIDTH]; 3],
+        hi: [[f32::NEG_INFINITY; WIDTH]; 3],
+        start: [EMPTY; WIDTH],
+        count: [0; WIDTH],
+    };
+
+    fn set(&mut self, k: usize, b: Aabb, start: u32, count: u32) {
+        for a in 0..3 {
+            self.lo[a][k] = b.lo[a];
+            self.hi[a][k] = b.hi[a];
+        }
+        self.start[k] = start;
+        self.count[k] = count;
+    }
+
+    fn bounds(&self, k: usize) -> Aabb {
+        Aabb {
+            lo: Vec3::new(self.lo[0][k], self.lo[1][k], self.lo[2][k]),
+            hi: Vec3::new(self.hi[0][k], self.hi[1][k], self.hi[2][k]),
+        }
+    }
+}
+
+/// What a child slot holds: an inner node, or primitive indices.
 pub enum NodeContent<'a> {
-    Inner(u32, u32),
+    Inner(u32),
     Leaf(&'a [u32]),
+}
+
+/// A ray prepared for slab tests: per axis, which of a box's two planes it meets first.
+struct SlabRay {
+    origin: [f32; 3],
+    inv: [f32; 3],
+    negative: [bool; 3],
+}
+
+impl SlabRay {
+    fn new(ray: &Ray) -> SlabRay {
+        let inv = ray.dir.recip();
+        SlabRay {
+            origin: ray.origin.to_array(),
+            inv: inv.to_array(),
+            negative: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
+        }
+    }
+
+    /// Where the ray enters each of `node`'s four boxes within [t_min, t_max], or infinity
+    /// where it misses. The same arithmetic as [`Aabb::intersect`]: `f32::max`/`min` drop
+    /// the NaN of 0 x infinity for a ray on a slab's plane.
+    #[inline(always)]
+    fn enter(&self, node: &Wide, t_min: f32, t_max: f32) -> [f32; WIDTH] {
+        let mut enter = [t_min; WIDTH];
+        let mut exit = [t_max; WIDTH];
+        for a in 0..3 {
+            let (near, far) = if self.negative[a] {
+                (&node.hi[a], &node.lo[a])
+            } else {
+                (&node.lo[a], &node.hi[a])
+            };
+            for k in 0..WIDTH {
+                enter[k] = enter[k].max((near[k] - self.origin[a]) * self.inv[a]);
+                exit[k] = exit[k].min((far[k] - self.origin[a]) * self.inv[a]);
+            }
+        }
+        std::array::from_fn(|k| {
+            if enter[k] <= exit[k] {
+                enter[k]
+            } else {
+                f32::INFINITY
+            }
+        })
+    }
 }
 
 #[derive(Clone, Debug)]
 pub struct Bvh {
-    nodes: Vec<Node>,
+    /// The root is node 0; an empty tree has one node with every slot unused.
+    nodes: Vec<Wide>,
     /// Primitive indices, leaves' ranges point into it.
     order: Vec<u32>,
+    bounds: Aabb,
 }
 
 impl Bvh {
     pub fn build(boxes: &[Aabb]) -> Bvh {
-        let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-        let centres: Vec<Vec3> = boxes.iter().map(Aabb::centre).collect();
-        let root = Node {
-            bounds: boxes.iter().fold(Aabb::EMPTY, |b, x| b.union(*x)),
-            start: 0,
-            count: boxes.len() as u32,
-        };
-        let mut nodes = vec![root];
-        let mut todo = vec![0usize];
-        while let Some(n) = todo.pop() {
-            let Node { start, count, .. } = nodes[n];
-            if count as usize <= LEAF_SIZE {
-                continue;
-            }
-            let range = start as usize..(start + count) as usize;
-            let Some(mid) = split(boxes, &centres, &mut order[range.clone()]) else {
-                continue;
-            };
-            let mid = range.start + mid;
-            let bounds_of = |r: std::ops::Range<usize>| {
-                order[r]
-                    .iter()
-                    .fold(Aabb::EMPTY, |b, &i| b.union(boxes[i as usize]))
-            };
-            let left = nodes.len();
-            nodes.push(Node {
-                bounds: bounds_of(range.start..mid),
-                start: range.start as u32,
-                count: (mid - range.start) as u32,
-            });
-            nodes.push(Node {
-                bounds: bounds_of(mid..range.end),
-                start: mid as u32,
-                count: (range.end - mid) as u32,
-            });
-            nodes[n].start = left as u32;
-            nodes[n].count = 0;
-            todo.push(left);
-            todo.push(left + 1);
+        let (binary, order) = build_binary(boxes);
+        let mut nodes = vec![Wide::UNUSED];
+        if !order.is_empty() {
+            collapse(&binary, &mut nodes);
         }
-        Bvh { nodes, order }
+        Bvh {
+            nodes,
+            order,
+            bounds: binary[0].bounds,
+        }
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.nodes[0].bounds
+        self.bounds
     }
 
-    /// Node `i` (0 is the root) for callers that walk the tree themselves: its box and either
-    /// its two children or its primitives. `None` for an empty tree.
-    pub fn node(&self, i: u32) -> Option<(Aabb, NodeContent<'_>)> {
-        if self.order.is_empty() {
-            return None;
-        }
-        let n = self.nodes.get(i as usize)?;
-        let content = if n.count > 0 {
-            NodeContent::Leaf(&self.order[n.start as usize..(n.start + n.count) as usize])
-        } else {
-            NodeContent::Inner(n.start, n.start + 1)
-        };
-        Some((n.bounds, content))
+    /// Primitive indices in the order the leaves hold them.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// Inner node `n`'s children (0 is the root), for callers that walk the tree themselves:
+    /// each child's box and content.
+    pub fn children(&self, n: u32) -> impl Iterator<Item = (Aabb, NodeContent<'_>)> {
+        let node = &self.nodes[n as usize];
+        (0..WIDTH)
+            .filter(|&k| node.start[k] != EMPTY)
+            .map(move |k| {
+                let content = if node.count[k] == 0 {
+                    NodeContent::Inner(node.start[k])
+                } else {
+                    let s = node.start[k] as usize;
+                    NodeContent::Leaf(&self.order[s..s + node.count[k] as usize])
+                };
+                (node.bounds(k), content)
+            })
     }
 
     /// Walks the nodes `ray` crosses within (t_min, t_max), nearest first, calling `test` on
@@ -102,66 +177,226 @@ impl Bvh {
         &self,
         ray: &Ray,
         t_min: f32,
-        mut t_max: f32,
+        t_max: f32,
         mut test: impl FnMut(u32, f32) -> Option<f32>,
     ) -> f32 {
-        if self.order.is_empty() {
-            return t_max;
-        }
-        let inv = ray.dir.recip();
-        let mut stack = [0u32; 64];
+        self.traverse_slots(ray, t_min, t_max, |slot, t| {
+            test(self.order[slot as usize], t)
+        })
+    }
+
+    /// [`Bvh::traverse`], naming each primitive by its position in [`Bvh::order`], so a caller
+    /// that keeps its primitives' data in that order reads them without an indirection.
+    pub fn traverse_slots(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        mut test: impl FnMut(u32, f32) -> Option<f32>,
+    ) -> f32 {
+        self.traverse_leaves(ray, t_min, t_max, |start, count, mut t_max| {
+            let mut hit = None;
+            for slot in start..start + count {
+                if let Some(t) = test(slot, t_max) {
+                    t_max = t_max.min(t);
+                    hit = Some(t_max);
+                    if t_max <= t_min {
+                        break;
+                    }
+                }
+            }
+            hit
+        })
+    }
+
+    /// The leaves as ranges of [`Bvh::order`] (`start`, `count`), each once.
+    pub fn leaves(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        self.nodes.iter().flat_map(|node| {
+            (0..WIDTH)
+                .filter(|&k| node.start[k] != EMPTY && node.count[k] > 0)
+                .map(|k| (node.start[k], node.count[k]))
+        })
+    }
+
+    /// [`Bvh::traverse`] a leaf at a time: `test(start, count, t_max)` tests the primitives
+    /// `order[start..][..count]` together, for callers that keep a leaf's data as one packet.
+    pub fn traverse_leaves(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        mut t_max: f32,
+        mut test: impl FnMut(u32, u32, f32) -> Option<f32>,
+    ) -> f32 {
+        let slab = SlabRay::new(ray);
+        // Children waiting, with where the ray enters them: (start, count, enter).
+        let mut stack = [(0u32, 0u32, 0f32); STACK];
+        let mut spill = Vec::new();
         let mut top = 0;
-        let mut node = 0usize;
-        if self.nodes[0]
-            .bounds
-            .intersect(ray, inv, t_min, t_max)
-            .is_none()
-        {
-            return t_max;
-        }
+        let (mut start, mut count) = (0u32, 0u32);
         loop {
-            let n = self.nodes[node];
-            if n.count > 0 {
-                for &p in &self.order[n.start as usize..(n.start + n.count) as usize] {
-                    if let Some(t) = test(p, t_max) {
-                        t_max = t_max.min(t);
-                        if t_max <= t_min {
-                            return t_max;
-                        }
+            if count == 0 {
+                let node = &self.nodes[start as usize];
+                let enter = slab.enter(node, t_min, t_max);
+                // The hit children, nearest first (an insertion sort of at most four).
+                let mut hits = [(0f32, 0usize); WIDTH];
+                let mut n = 0;
+                for (k, &e) in enter.iter().enumerate() {
+                    if e == f32::INFINITY {
+                        continue;
                     }
+                    let mut j = n;
+                    while j > 0 && hits[j - 1].0 > e {
+                        hits[j] = hits[j - 1];
+                        j -= 1;
+                    }
+                    hits[j] = (e, k);
+                    n += 1;
                 }
-            } else {
-                let (l, r) = (n.start as usize, n.start as usize + 1);
-                let hl = self.nodes[l].bounds.intersect(ray, inv, t_min, t_max);
-                let hr = self.nodes[r].bounds.intersect(ray, inv, t_min, t_max);
-                match (hl, hr) {
-                    (Some(a), Some(b)) => {
-                        let (near, far) = if a.0 <= b.0 { (l, r) } else { (r, l) };
-                        if top < stack.len() {
-                            stack[top] = far as u32;
-                            top += 1;
+                if n > 0 {
+                    for &(e, k) in hits[1..n].iter().rev() {
+                        let entry = (node.start[k], node.count[k], e);
+                        if top < STACK {
+                            stack[top] = entry;
+                        } else {
+                            spill.push(entry);
                         }
-                        node = near;
-                        continue;
+                        top += 1;
                     }
-                    (Some(_), None) => {
-                        node = l;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = r;
-                        continue;
-                    }
-                    (None, None) => {}
+                    let k = hits[0].1;
+                    (start, count) = (node.start[k], node.count[k]);
+                    continue;
+                }
+            } else if let Some(t) = test(start, count, t_max) {
+                t_max = t_max.min(t);
+                if t_max <= t_min {
+                    return t_max;
                 }
             }
-            if top == 0 {
-                return t_max;
+            loop {
+                if top == 0 {
+                    return t_max;
+                }
+                top -= 1;
+                let (s, c, e) = if top < STACK {
+                    stack[top]
+                } else {
+                    spill.pop().unwrap_or_default()
+                };
+                if e <= t_max {
+                    (start, count) = (s, c);
+                    break;
+                }
             }
-            top -= 1;
-            node = stack[top] as usize;
         }
     }
+}
+
+/// The binary SAH tree over `boxes` (node 0 the root) and the primitive order its leaves
+/// index.
+fn build_binary(boxes: &[Aabb]) -> (Vec<Binary>, Vec<u32>) {
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    let centres: Vec<Vec3> = boxes.iter().map(Aabb::centre).collect();
+    let root = Binary {
+        bounds: boxes.iter().fold(Aabb::EMPTY, |b, x| b.union(*x)),
+        start: 0,
+        count: boxes.len() as u32,
+    };
+    let mut nodes = vec![root];
+    let mut todo = vec![(0usize, 0u32)];
+    while let Some((n, depth)) = todo.pop() {
+        let Binary { start, count, .. } = nodes[n];
+        if count as usize <= LEAF_SIZE {
+            continue;
+        }
+        let range = start as usize..(start + count) as usize;
+        let part = &mut order[range.clone()];
+        // Where no plane beats a leaf (centres that coincide) the median still splits: every
+        // leaf holds at most LEAF_SIZE primitives, which callers' packets rely on.
+        let sah = if depth < SAH_DEPTH {
+            split(boxes, &centres, part)
+        } else {
+            None
+        };
+        let mid = sah.unwrap_or_else(|| median(&centres, part));
+        let mid = range.start + mid;
+        let bounds_of = |r: std::ops::Range<usize>| {
+            order[r]
+                .iter()
+                .fold(Aabb::EMPTY, |b, &i| b.union(boxes[i as usize]))
+        };
+        let left = nodes.len();
+        nodes.push(Binary {
+            bounds: bounds_of(range.start..mid),
+            start: range.start as u32,
+            count: (mid - range.start) as u32,
+        });
+        nodes.push(Binary {
+            bounds: bounds_of(mid..range.end),
+            start: mid as u32,
+            count: (range.end - mid) as u32,
+        });
+        nodes[n].start = left as u32;
+        nodes[n].count = 0;
+        todo.push((left, depth + 1));
+        todo.push((left + 1, depth + 1));
+    }
+    (nodes, order)
+}
+
+/// Fills the wide tree from the binary one: each wide node takes a binary node's two children
+/// and keeps opening the inner child with the largest surface area until it has four.
+fn collapse(binary: &[Binary], wide: &mut Vec<Wide>) {
+    let root = binary[0];
+    let mut todo = vec![(0usize, 0usize)];
+    if root.count > 0 {
+        wide[0].set(0, root.bounds, root.start, root.count);
+        return;
+    }
+    while let Some((b, w)) = todo.pop() {
+        let first = binary[b].start as usize;
+        let mut kids = vec![first, first + 1];
+        while kids.len() < WIDTH {
+            let widest = kids
+                .iter()
+                .enumerate()
+                .filter(|&(_, &k)| binary[k].count == 0)
+                .max_by(|a, b| {
+                    let area = |k: usize| binary[k].bounds.surface_area();
+                    area(*a.1).total_cmp(&area(*b.1))
+                })
+                .map(|(pos, _)| pos);
+            let Some(pos) = widest else { break };
+            let k = kids.remove(pos);
+            let first = binary[k].start as usize;
+            kids.extend([first, first + 1]);
+        }
+        for (slot, &k) in kids.iter().enumerate() {
+            let node = binary[k];
+            if node.count > 0 {
+                wide[w].set(slot, node.bounds, node.start, node.count);
+            } else {
+                let child = wide.len();
+                wide.push(Wide::UNUSED);
+                wide[w].set(slot, node.bounds, child as u32, 0);
+                todo.push((k, child));
+            }
+        }
+    }
+}
+
+/// Splits `order` at its middle along the widest axis of its centres (ties by index, so the
+/// build stays deterministic).
+fn median(centres: &[Vec3], order: &mut [u32]) -> usize {
+    let cb = order
+        .iter()
+        .fold(Aabb::EMPTY, |b, &i| b.grow(centres[i as usize]));
+    let axis = (cb.hi - cb.lo).max_position();
+    order.sort_by(|&a, &b| {
+        centres[a as usize][axis]
+            .total_cmp(&centres[b as usize][axis])
+            .then(a.cmp(&b))
+    });
+    order.len() / 2
 }
 
 /// Partitions `order` by the cheapest binned SAH plane; `None` when no split beats a leaf
@@ -227,36 +462,108 @@ mod tests {
     use crate::geom::intersect_triangle;
     use crate::rng::Stream;
 
-    #[test]
-    fn nearest_hit_matches_brute_force() {
-        let mut s = Stream::new(5, 0);
+    fn random_triangles(seed: u64, n: usize, size: f32) -> Vec<[Vec3; 3]> {
+        let mut s = Stream::new(seed, 0);
         let mut r = || s.range(-10.0, 10.0) as f32;
-        let tris: Vec<[Vec3; 3]> = (0..500)
+        (0..n)
             .map(|_| {
                 let c = Vec3::new(r(), r(), r());
                 [
                     c,
-                    c + Vec3::new(r(), r(), r()) * 0.1,
-                    c + Vec3::new(r(), r(), r()) * 0.1,
+                    c + Vec3::new(r(), r(), r()) * size,
+                    c + Vec3::new(r(), r(), r()) * size,
                 ]
             })
-            .collect();
+            .collect()
+    }
+
+    fn brute(tris: &[[Vec3; 3]], ray: &Ray) -> f32 {
+        tris.iter()
+            .filter_map(|t| intersect_triangle(ray, *t, 0.0, f32::INFINITY))
+            .map(|h| h.t)
+            .fold(f32::INFINITY, f32::min)
+    }
+
+    fn nearest(bvh: &Bvh, tris: &[[Vec3; 3]], ray: &Ray) -> f32 {
+        bvh.traverse(ray, 0.0, f32::INFINITY, |i, tmax| {
+            intersect_triangle(ray, tris[i as usize], 0.0, tmax).map(|h| h.t)
+        })
+    }
+
+    #[test]
+    fn nearest_hit_matches_brute_force() {
+        let tris = random_triangles(5, 500, 0.1);
         let boxes: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
         let bvh = Bvh::build(&boxes);
+        let mut s = Stream::new(6, 0);
+        let mut r = || s.range(-10.0, 10.0) as f32;
         for _ in 0..2000 {
             let ray = Ray {
                 origin: Vec3::new(r(), r(), r()),
                 dir: Vec3::new(r(), r(), r()).normalize(),
             };
-            let brute = tris
-                .iter()
-                .filter_map(|t| intersect_triangle(&ray, *t, 0.0, f32::INFINITY))
-                .map(|h| h.t)
-                .fold(f32::INFINITY, f32::min);
-            let fast = bvh.traverse(&ray, 0.0, f32::INFINITY, |i, tmax| {
-                intersect_triangle(&ray, tris[i as usize], 0.0, tmax).map(|h| h.t)
-            });
-            assert_eq!(brute, fast);
+            assert_eq!(brute(&tris, &ray), nearest(&bvh, &tris, &ray));
         }
+    }
+
+    /// Rays along the axes (infinite reciprocals), from on a box's plane, and an empty tree,
+    /// a tree of one primitive and one of a few.
+    #[test]
+    fn axis_rays_and_small_trees_match_brute_force() {
+        for n in [0, 1, 3, 5, 17, 300] {
+            let tris = random_triangles(n as u64, n, 0.5);
+            let boxes: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
+            let bvh = Bvh::build(&boxes);
+            for (k, t) in tris.iter().enumerate().take(50) {
+                for axis in 0..3 {
+                    for sign in [-1.0f32, 1.0] {
+                        let mut dir = Vec3::ZERO;
+                        dir[axis] = sign;
+                        let c = (t[0] + t[1] + t[2]) / 3.0;
+                        let ray = Ray {
+                            origin: c - dir * 20.0,
+                            dir,
+                        };
+                        assert_eq!(brute(&tris, &ray), nearest(&bvh, &tris, &ray), "{n} {k}");
+                        // Starting exactly on the plane of a corner's box.
+                        let ray = Ray {
+                            origin: Vec3::new(t[0].x, c.y, c.z) - dir * 20.0,
+                            dir,
+                        };
+                        assert_eq!(brute(&tris, &ray), nearest(&bvh, &tris, &ray));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Primitives spaced so the surface-area splits cut one off at a time: the tree's depth
+    /// is bounded by the median rule, so traversal finds every hit.
+    #[test]
+    fn a_degenerate_distribution_keeps_a_bounded_depth() {
+        let tris: Vec<[Vec3; 3]> = (0..4000)
+            .map(|i| {
+                let x = 1.001f32.powi(i * 4);
+                let c = Vec3::new(x, 0.0, 0.0);
+                [c, c + Vec3::Y * 0.5, c + Vec3::Z * 0.5]
+            })
+            .collect();
+        let boxes: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
+        let bvh = Bvh::build(&boxes);
+        for t in tris.iter().step_by(37) {
+            let ray = Ray {
+                origin: t[0] + Vec3::new(0.0, 0.1, -5.0),
+                dir: Vec3::Z,
+            };
+            assert_eq!(brute(&tris, &ray), nearest(&bvh, &tris, &ray));
+        }
+        let leaves: usize = (0..bvh.nodes.len() as u32)
+            .flat_map(|n| bvh.children(n).collect::<Vec<_>>())
+            .map(|(_, c)| match c {
+                NodeContent::Leaf(items) => items.len(),
+                NodeContent::Inner(_) => 0,
+            })
+            .sum();
+        assert_eq!(leaves, tris.len(), "every primitive in exactly one leaf");
     }
 }

@@ -185,8 +185,8 @@ impl Instances {
     pub fn intervals(&self, ray: Ray, t_max: f32) -> Intervals<'_> {
         let inv = ray.dir.recip();
         let mut heap = BinaryHeap::new();
-        if let Some((bounds, _)) = self.bvh.node(0)
-            && let Some((enter, _)) = bounds.intersect(&ray, inv, 0.0, t_max)
+        if !self.is_empty()
+            && let Some((enter, _)) = self.bvh.bounds().intersect(&ray, inv, 0.0, t_max)
         {
             heap.push(Reverse((order_key(enter), Item::Node(0))));
         }
@@ -283,28 +283,27 @@ impl Intervals<'_> {
         None
     }
 
-    /// Queues node `n`'s children, or its instances' intervals.
+    /// Queues the children of node `n` that the ray enters: inner nodes, and the intervals of
+    /// the instances of leaves.
     fn open(&mut self, n: u32) {
         let bvh = &self.instances.bvh;
-        match bvh.node(n).map(|(_, c)| c) {
-            Some(NodeContent::Inner(a, b)) => {
-                for child in [a, b] {
-                    if let Some((bounds, _)) = bvh.node(child)
-                        && let Some((e, _)) = bounds.intersect(&self.ray, self.inv, 0.0, self.t_max)
-                    {
-                        self.heap.push(Reverse((order_key(e), Item::Node(child))));
+        for (bounds, content) in bvh.children(n) {
+            let Some((e, _)) = bounds.intersect(&self.ray, self.inv, 0.0, self.t_max) else {
+                continue;
+            };
+            match content {
+                NodeContent::Inner(child) => {
+                    self.heap.push(Reverse((order_key(e), Item::Node(child))));
+                }
+                NodeContent::Leaf(items) => {
+                    for &i in items {
+                        if let Some((e, x)) = self.instances.interval(i, &self.ray, self.t_max) {
+                            self.heap
+                                .push(Reverse((order_key(e), Item::Instance(i, order_key(x)))));
+                        }
                     }
                 }
             }
-            Some(NodeContent::Leaf(items)) => {
-                for &i in items {
-                    if let Some((e, x)) = self.instances.interval(i, &self.ray, self.t_max) {
-                        self.heap
-                            .push(Reverse((order_key(e), Item::Instance(i, order_key(x)))));
-                    }
-                }
-            }
-            None => {}
         }
     }
 }
