@@ -95,7 +95,8 @@ fn main() {
     ]);
     let figure = |before: &str| number_after(&err, before).unwrap_or(f64::NAN);
     println!(
-        "render 1920x1080, 1 spp, texel  {seconds:>7.2} s  (scene built in {:.2} s; peak memory {} MiB; {:.1} volume samples per pixel; targets 60 s, 4096 MiB)",
+        "render {} trees at 1920x1080, 1 spp, texel  {seconds:>7.2} s  (scene built in {:.2} s; peak memory {} MiB; {:.1} volume samples per pixel; targets 60 s, 4096 MiB)",
+        figure("rendered "),
         figure("scene built in "),
         figure("peak memory "),
         figure("primary rays/s, "),

@@ -139,9 +139,13 @@ impl Instances {
 
     /// The part of `ray` inside instance `i`'s model box, before `t_max`.
     pub fn interval(&self, i: u32, ray: &Ray, t_max: f32) -> Option<(f32, f32)> {
-        let inst = self.get(i);
-        let local = inst.local_ray(ray);
-        self.model_boxes[inst.model as usize].intersect(&local, local.dir.recip(), 0.0, t_max)
+        self.local_interval(i, &self.get(i).local_ray(ray), t_max)
+    }
+
+    /// [`Instances::interval`] of a ray already carried into instance `i`'s model space.
+    pub fn local_interval(&self, i: u32, local: &Ray, t_max: f32) -> Option<(f32, f32)> {
+        let model = self.get(i).model as usize;
+        self.model_boxes[model].intersect(local, local.dir.recip(), 0.0, t_max)
     }
 
     /// Calls `f(i, local ray, t_max)` for every instance whose world box `ray` meets before

@@ -91,24 +91,25 @@ struct Active {
 }
 
 impl Active {
-    /// Instance `i` as `ray` meets it (leaving at `exit`), where the ray's footprint is
-    /// `footprint` metres: the mip level whose cells match it, and the ray in that level's cells.
-    fn new(scene: &Scene, i: u32, ray: &Ray, exit: f32, footprint: f32, lod_bias: f32) -> Active {
+    /// Instance `i` as a ray meets it (`local`: the ray in its model space, leaving at `exit`),
+    /// where the ray's footprint is `footprint` metres: the mip level whose cells match it, and
+    /// the ray in that level's cells.
+    fn new(scene: &Scene, i: u32, local: &Ray, exit: f32, footprint: f32, lod_bias: f32) -> Active {
         let inst: &TreeTransform = scene.instances.get(i);
         let texel = &scene.texels[scene.looks[inst.look as usize].texel];
         let cell0 = texel.levels[0].cell as f32;
         let wanted = (footprint / inst.scale / cell0).max(1.0).log2() + lod_bias;
         let level = (wanted.max(0.0) as usize).min(texel.levels.len() - 1);
-        Active::at_level(scene, i, ray, exit, level)
+        Active::at_level(scene, i, local, exit, level)
     }
 
-    /// Instance `i` as `ray` meets it, read at mip level `level`.
-    fn at_level(scene: &Scene, i: u32, ray: &Ray, exit: f32, level: usize) -> Active {
+    /// Instance `i` as a ray meets it (`local`, in its model space), read at mip level `level`.
+    fn at_level(scene: &Scene, i: u32, local: &Ray, exit: f32, level: usize) -> Active {
         let inst: &TreeTransform = scene.instances.get(i);
         let texel = &scene.texels[scene.looks[inst.look as usize].texel];
         let cell = texel.levels[level].cell as f32;
         let origin = texel.origin().as_vec3();
-        let dir = inst.dir_to_model(ray.dir);
+        let dir = local.dir;
         // Extinction depends on direction only through the level's factors, constant along
         // a straight ray: one multiplier per instance the ray meets.
         let directional = texel.levels[level].directional_factor(dir);
@@ -117,7 +118,7 @@ impl Active {
             model: inst.model,
             exit,
             level,
-            c0: (inst.to_model(ray.origin) - origin) / cell,
+            c0: (local.origin - origin) / cell,
             dc: dir / cell,
             sigma_scale: texel.info.extinction_scale as f32 * directional / inst.scale,
             step: cell * inst.scale,
@@ -178,7 +179,8 @@ impl<'a> Walk<'a> {
     fn admit(&mut self, t: f32) {
         while let Some((i, enter, exit)) = self.intervals.next_entered(t) {
             let footprint = enter * self.spread + self.base;
-            let a = Active::new(self.scene, i, &self.ray, exit, footprint, self.lod_bias);
+            let local = self.scene.instances.get(i).local_ray(&self.ray);
+            let a = Active::new(self.scene, i, &local, exit, footprint, self.lod_bias);
             self.active.push(a);
         }
     }
@@ -251,11 +253,11 @@ pub fn transmittance(
     let mut depth = 0.0f32;
     scene
         .sun_beam
-        .visit(&scene.instances, &ray, t_max, |i, _, _| {
-            let (enter, exit) = scene.instances.interval(i, &ray, t_max)?;
+        .visit(&scene.instances, &ray, t_max, |i, local, _| {
+            let (enter, exit) = scene.instances.local_interval(i, local, t_max)?;
             let (a, factor) = match own.iter().find(|o| o.instance == i) {
-                Some(o) => (Active::at_level(scene, i, &ray, exit, o.level), o.factor),
-                None => (Active::new(scene, i, &ray, exit, footprint, lod_bias), 1.0),
+                Some(o) => (Active::at_level(scene, i, local, exit, o.level), o.factor),
+                None => (Active::new(scene, i, local, exit, footprint, lod_bias), 1.0),
             };
             let sigma_scale = a.sigma_scale * factor;
             let look = &scene.looks[scene.instances.get(i).look as usize];
@@ -449,28 +451,15 @@ fn scatter(
     let shown = m.wood_shown + m.foliage;
     let part = rng::unit(rng::hash3(key, segment, purpose::SEGMENT_PART)) as f32 * shown;
     let foliage_scatters = part >= m.wood_shown;
-    let mut own = [OwnTree::default(); MAX_OWN];
-    let (p, own) = if foliage_scatters {
-        // A leaf's shadow ray leaves the leaf itself, through its own tree as the level's
-        // self-shadowing says (clumping, and the hot spot where the sun is behind the eye).
-        let cos_g = (-dir).dot(sun.direction);
-        let mut n = 0;
-        for a in active.iter().take(MAX_OWN) {
-            let inst = scene.instances.get(a.instance);
-            let texel = &scene.texels[scene.looks[inst.look as usize].texel];
-            own[n] = OwnTree {
-                instance: a.instance,
-                level: a.level,
-                factor: texel.levels[a.level].self_shadow_at(cos_g),
-            };
-            n += 1;
-        }
-        (dir * s.ts, &own[..n])
+    // A leaf's shadow ray leaves the leaf itself, through its own tree as the level's
+    // self-shadowing says (clumping, and the hot spot where the sun is behind the eye). Wood
+    // is a solid: its shadow ray leaves from one layer towards the sun, so that the surface
+    // layer the sample stands for does not shadow itself (an opaque volume would otherwise
+    // shade as Lommel-Seeliger's law, half as bright as a surface lit head-on).
+    let p = if foliage_scatters {
+        dir * s.ts
     } else {
-        // Wood is a solid: its shadow ray leaves from one layer towards the sun, so that the
-        // surface layer the sample stands for does not shadow itself (an opaque volume would
-        // otherwise shade as Lommel-Seeliger's law, half as bright as a surface lit head-on).
-        (dir * s.ts + sun.direction * s.layer, &own[..0])
+        dir * s.ts + sun.direction * s.layer
     };
     let lit = if !scene.shadows {
         sun_radiance(scene)
@@ -481,19 +470,45 @@ fn scatter(
             rng::hash3(key, segment, purpose::SEGMENT_ROULETTE),
             shadow_rays,
             || {
+                // Only for a shadow ray actually cast: the roulette skips most.
+                let mut own = [OwnTree::default(); MAX_OWN];
+                let mut n = 0;
+                if foliage_scatters {
+                    let cos_g = (-dir).dot(sun.direction);
+                    for a in active.iter().take(MAX_OWN) {
+                        let inst = scene.instances.get(a.instance);
+                        let texel = &scene.texels[scene.looks[inst.look as usize].texel];
+                        own[n] = OwnTree {
+                            instance: a.instance,
+                            level: a.level,
+                            factor: texel.levels[a.level].self_shadow_at(cos_g),
+                        };
+                        n += 1;
+                    }
+                }
                 let key = rng::hash3(key, segment, purpose::SEGMENT_LIGHT);
-                sun_light(scene, p, s.footprint, key, march, own)
+                sun_light(scene, p, s.footprint, key, march, &own[..n])
             },
         )
     };
+    let albedo = if foliage_scatters {
+        m.albedo_foliage / m.foliage
+    } else {
+        m.albedo_wood / m.wood
+    };
+    if lit == 0.0 {
+        // Unlit (shadowed, or its shadow ray skipped by the roulette): only the ambient term
+        // is left, which no normal changes, so none is drawn.
+        return shade(scene, albedo, None, lit, -dir);
+    }
     if foliage_scatters {
         let leaf_key = rng::hash3(key, segment, purpose::SEGMENT_LEAF);
         let u = [rng::unit(leaf_key), rng::unit(rng::mix64(leaf_key))].map(|x| x as f32);
         let n = super::leaves::visible_normal(m.leaves.map(|v| v / m.foliage), -dir, u);
-        shade(scene, m.albedo_foliage / m.foliage, Some(n), lit, -dir)
+        shade(scene, albedo, Some(n), lit, -dir)
     } else {
         let normal = (-m.gradient_wood).try_normalize();
-        shade(scene, m.albedo_wood / m.wood, normal, lit, -dir)
+        shade(scene, albedo, normal, lit, -dir)
     }
 }
 
