@@ -205,9 +205,10 @@ impl Level {
     }
 
     /// What a renderer's sample reads at `c`, from one set of trilinear weights: both
-    /// densities, and a part's gradient only where it has density; the wood's albedo and the
-    /// foliage's leaf moments likewise. The foliage's baked albedo is not read (a species'
-    /// seasonal colour replaces it): `albedo[1]` stays zero.
+    /// densities, and a part's gradient only where it has density; the wood's albedo likewise.
+    /// The foliage's baked albedo is not read (a species' seasonal colour replaces it):
+    /// `albedo[1]` stays zero. Leaf moments, needed only by a lit leaf, are
+    /// [`Level::foliage_leaves`].
     #[inline]
     pub fn fetch(&self, c: Vec3) -> Fetch {
         let Some((idx, w)) = self.trilinear(c) else {
@@ -233,15 +234,26 @@ impl Level {
                 f.albedo[0] += Vec3::from(albedo[idx[k]]) * w[k];
             }
         }
-        if f.density[1] > 0.0 {
-            for k in 0..8 {
-                let leaves = &self.leaves[idx[k]];
-                for (sum, m) in f.leaves.iter_mut().zip(leaves) {
-                    *sum += m * w[k];
-                }
+        f
+    }
+
+    /// The foliage's density at `c` and, where it has some, its leaf-normal moment, from one
+    /// set of trilinear weights (the same sums as [`Level::fetch`]'s density).
+    #[inline]
+    pub fn foliage_leaves(&self, c: Vec3) -> Option<(f32, [f32; 6])> {
+        let (idx, w) = self.trilinear(c)?;
+        let density = &self.density[1];
+        let d: f32 = (0..8).map(|k| density[idx[k]] * w[k]).sum();
+        if d <= 0.0 {
+            return None;
+        }
+        let mut leaves = [0.0f32; 6];
+        for k in 0..8 {
+            for (sum, m) in leaves.iter_mut().zip(&self.leaves[idx[k]]) {
+                *sum += m * w[k];
             }
         }
-        f
+        Some((d, leaves))
     }
 }
 
@@ -307,6 +319,9 @@ impl std::ops::Deref for Sparse<'_> {
 
 /// Cells along each side of an [`Occupancy`] brick.
 pub const BRICK: usize = 4;
+/// Levels at most this many bricks along every axis are marched without looking at their
+/// bricks: a walk over so few costs about what the samples it would save do.
+const SMALL_BRICKS: usize = 4;
 
 /// Which bricks of a level (`BRICK`^3 cells) can hold density, for marches that jump over empty
 /// space: a brick is occupied when any cell within one cell of it holds density of either part,
@@ -347,7 +362,7 @@ impl Occupancy {
                 }
             }
         }
-        let full = occupied.iter().all(|&o| o);
+        let full = occupied.iter().all(|&o| o) || dims.iter().all(|&d| d <= SMALL_BRICKS);
         Occupancy {
             dims,
             occupied,
@@ -443,8 +458,6 @@ pub struct Fetch {
     pub density: [f32; 2],
     pub gradient: [Vec3; 2],
     pub albedo: [Vec3; 2],
-    /// The foliage's leaf-normal moment (see [`Level::leaves`]).
-    pub leaves: [f32; 6],
 }
 
 /// Outward unit normal from a density gradient (`-g / |g|`), or `None` where the gradient

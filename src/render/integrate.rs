@@ -504,7 +504,8 @@ fn scatter(
     if foliage_scatters {
         let leaf_key = rng::hash3(key, segment, purpose::SEGMENT_LEAF);
         let u = [rng::unit(leaf_key), rng::unit(rng::mix64(leaf_key))].map(|x| x as f32);
-        let n = super::leaves::visible_normal(m.leaves.map(|v| v / m.foliage), -dir, u);
+        let leaves = leaf_moment(scene, active, s.ts);
+        let n = super::leaves::visible_normal(leaves.map(|v| v / m.foliage), -dir, u);
         shade(scene, albedo, Some(n), lit, -dir)
     } else {
         let normal = (-m.gradient_wood).try_normalize();
@@ -514,8 +515,8 @@ fn scatter(
 
 /// What the instances containing a sample say: their extinction by part, each part's albedo
 /// weighted by its extinction, the gradients (the whole's, for the surface it reports, and the
-/// wood's, which shades the wood), the foliage's leaf-normal moment weighted by its extinction,
-/// and the densest instance's look.
+/// wood's, which shades the wood) and the densest instance's look. The foliage's leaf-normal
+/// moment is read apart ([`leaf_moment`]), only where a leaf is lit.
 struct Mix {
     wood: f32,
     foliage: f32,
@@ -525,7 +526,6 @@ struct Mix {
     albedo_foliage: Vec3,
     gradient: Vec3,
     gradient_wood: Vec3,
-    leaves: [f32; 6],
     densest: (f32, u16),
 }
 
@@ -544,7 +544,6 @@ fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
         albedo_foliage: Vec3::ZERO,
         gradient: Vec3::ZERO,
         gradient_wood: Vec3::ZERO,
-        leaves: [0.0; 6],
         densest: (0.0, 0),
     };
     for a in active {
@@ -569,16 +568,32 @@ fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
         let per_metre = a.sigma_scale / inst.scale;
         m.gradient += inst.dir_to_world(f.gradient[0] + f.gradient[1] * look.foliage) * per_metre;
         m.gradient_wood += inst.dir_to_world(f.gradient[0]) * per_metre;
-        // The moment turns with the instance: M' = R M R^T, R a turn about +Y.
-        let turned = turn_moment(f.leaves, inst.cos, inst.sin);
-        for (sum, v) in m.leaves.iter_mut().zip(turned) {
-            *sum += v * foliage;
-        }
         if s > m.densest.0 {
             m.densest = (s, inst.look);
         }
     }
     m
+}
+
+/// The foliage's leaf-normal moment at `ts` along the ray, in the renderer's frame, summed
+/// over the instances there, each weighted by its foliage extinction (divide by the total for
+/// the mixture's moment). Read only for a leaf that is lit: most samples are not.
+fn leaf_moment(scene: &Scene, active: &[Active], ts: f32) -> [f32; 6] {
+    let mut sum = [0.0f32; 6];
+    for a in active {
+        let inst = scene.instances.get(a.instance);
+        let look = &scene.looks[inst.look as usize];
+        let level = &scene.texels[look.texel].levels[a.level];
+        let Some((density, leaves)) = level.foliage_leaves(a.c0 + a.dc * ts) else {
+            continue;
+        };
+        let foliage = a.sigma_scale * look.foliage * density;
+        // The moment turns with the instance: M' = R M R^T, R a turn about +Y.
+        for (s, v) in sum.iter_mut().zip(turn_moment(leaves, inst.cos, inst.sin)) {
+            *s += v * foliage;
+        }
+    }
+    sum
 }
 
 /// The leaf-normal moment `[xx, yy, zz, xy, xz, yz]` of model space in the renderer's frame,
