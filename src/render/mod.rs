@@ -15,15 +15,17 @@ pub mod load;
 pub mod mesh;
 pub mod scene;
 pub mod shading;
+pub mod sunlight;
 pub mod view;
+pub mod walk;
 
 use rayon::prelude::*;
 
 pub use camera::Camera;
 pub use film::{Aovs, Film};
-pub use integrate::March;
 pub use scene::{Ground, Lighting, Look, Placed, Scene, Shading, Sun};
 pub use shading::Radiance;
+pub use walk::March;
 
 #[cfg(test)]
 mod mesh_tests;

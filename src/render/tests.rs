@@ -2,8 +2,10 @@
 
 use glam::{DVec3, Vec3, Vec4};
 
-use super::integrate::{March, radiance, transmittance};
+use super::integrate::radiance;
 use super::scene::{Lighting, Look, Placed, Scene, Shading, Sun};
+use super::sunlight::transmittance;
+use super::walk::March;
 use super::{Camera, RenderSettings, render};
 use crate::bake::{mip_chain, sobel};
 use crate::geom::Ray;

@@ -1,0 +1,146 @@
+//! The sun's light at a point: the transmittance towards the sun through every texture and
+//! the terrain (equation 2), and the Russian roulette that decides which samples cast a
+//! shadow ray at all.
+
+use glam::Vec3;
+
+use super::scene::Scene;
+use super::shading::sun_radiance;
+use super::walk::{Active, March};
+use crate::geom::Ray;
+use crate::rng;
+
+/// A tree a foliage sample lies in, as its shadow ray must cross it: at the sample's level,
+/// its extinction times the level's self-shadowing factor (`Level::self_shadow`).
+#[derive(Clone, Copy, Default)]
+pub struct OwnTree {
+    pub instance: u32,
+    pub level: usize,
+    pub factor: f32,
+}
+
+/// At most this many trees containing one sample get their self-shadowing; further ones (a
+/// pile of coincident boxes) are crossed as any other tree.
+pub(super) const MAX_OWN: usize = 8;
+
+/// Transmittance along `ray` (from its origin, unit direction) up to `t_max` through every texture and the
+/// terrain. `footprint` (m) picks the texture level; the trees in `own` are crossed as
+/// [`OwnTree`] says.
+///
+/// Optical depth is a sum over the instances the ray crosses, and a sum does not care about
+/// order: so unlike a view ray, a shadow ray needs no front-to-back walk. It visits the
+/// instances in plain traversal order, marches each box on its own, and stops as soon as the
+/// depth so far already puts the transmittance below the cut-off.
+pub fn transmittance(
+    scene: &Scene,
+    ray: Ray,
+    t_max: f32,
+    footprint: f32,
+    key: u64,
+    march: &March,
+    own: &[OwnTree],
+) -> f32 {
+    if let Some(g) = &scene.ground
+        && g.occluded(&ray, t_max)
+    {
+        return 0.0;
+    }
+    let opaque = -march.cutoff.ln();
+    let lod_bias = march.lod_bias + march.shadow_lod;
+    let mut depth = 0.0f32;
+    scene
+        .sun_beam
+        .visit(&scene.instances, &ray, t_max, |i, local, _| {
+            let (enter, exit) = scene.instances.local_interval(i, local, t_max)?;
+            let (a, factor) = match own.iter().find(|o| o.instance == i) {
+                Some(o) => (Active::at_level(scene, i, local, exit, o.level), o.factor),
+                None => (Active::new(scene, i, local, exit, footprint, lod_bias), 1.0),
+            };
+            let sigma_scale = a.sigma_scale * factor;
+            let look = &scene.looks[scene.instances.get(i).look as usize];
+            let level = &scene.texels[look.texel].levels[a.level];
+            let occupancy = &scene.occupancy[look.texel][a.level];
+            let foliage = look.foliage;
+            let length = a.step * march.step;
+            let mut t = enter;
+            let mut segment = 0u64;
+            // Up to where the march need not look at the bricks again (empty ones are jumped
+            // over; segments run on across occupied ones as they would without bricks).
+            let mut looked = t;
+            while t < exit {
+                if t >= looked {
+                    let (occupied, until) = occupancy.span(a.c0, a.dc, t, exit);
+                    // Whole segments that lie in empty bricks are jumped over, with their draws:
+                    // the segments and samples left are exactly those of a march that skips
+                    // nothing, so the estimate is unchanged, only cheaper.
+                    let empty = ((until - t) / length).floor();
+                    if !occupied && empty >= 1.0 {
+                        t += empty * length;
+                        segment += empty as u64;
+                        continue;
+                    }
+                    // At t's precision no progress: march the rest of the box plainly.
+                    looked = if until > t { until } else { exit };
+                }
+                // A step below t's precision would never advance: take the rest in one.
+                let end = if t + length > t {
+                    (t + length).min(exit)
+                } else {
+                    exit
+                };
+                let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
+                let d = level.density_at(a.c0 + a.dc * ts);
+                depth += sigma_scale * (d[0] + foliage * d[1]) * (end - t);
+                if depth > opaque {
+                    // Stops the traversal: nothing further can make the light visible.
+                    return Some(0.0);
+                }
+                segment += 1;
+                t = end;
+            }
+            None
+        });
+    if depth > opaque { 0.0 } else { (-depth).exp() }
+}
+
+/// The light `light()` finds, for a sample with `share` of the pixel: always computed for a
+/// large share, else with probability share / `march.shadow_share` and divided by it, so
+/// that its expectation is unchanged and a skipped shadow ray costs nothing. `cast` counts
+/// the shadow rays.
+pub(super) fn roulette(
+    share: f32,
+    march: &March,
+    key: u64,
+    cast: &mut u32,
+    light: impl FnOnce() -> f32,
+) -> f32 {
+    if share >= march.shadow_share {
+        *cast += 1;
+        return light();
+    }
+    // Any probability works if it is the one divided by; a floor keeps 1/p finite.
+    let p = (share / march.shadow_share).max(1e-6);
+    if (rng::unit(key) as f32) < p {
+        *cast += 1;
+        light() / p
+    } else {
+        0.0
+    }
+}
+
+/// I(t): the sun's radiance scale times the transmittance towards it.
+pub(super) fn sun_light(
+    scene: &Scene,
+    p: Vec3,
+    footprint: f32,
+    key: u64,
+    march: &March,
+    own: &[OwnTree],
+) -> f32 {
+    let ray = Ray {
+        origin: p,
+        dir: scene.sun.direction,
+    };
+    let t = transmittance(scene, ray, f32::INFINITY, footprint, key, march, own);
+    sun_radiance(scene) * t
+}

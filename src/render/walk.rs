@@ -1,0 +1,213 @@
+//! The front-to-back walk of a view ray through the instances, and how finely rays are
+//! marched (`March`).
+//!
+//! Instances are found front to back and lazily, as interval events: a heap of bounding
+//! volume nodes and instance boxes ordered by where the ray enters them; a node is opened only
+//! when the march reaches it, so a grazing ray over a forest never collects the boxes it does
+//! not reach. Between events the ray is cut into segments of one texture cell (at the level
+//! the pixel's footprint needs); each segment takes one jittered sample (stratified Monte
+//! Carlo), whose extinction, colour and normal stand for the segment: the segment transmits
+//! exp(-sigma length) and adds T (1 - that) S.
+
+use glam::Vec3;
+
+use super::instances::{Intervals, TreeTransform};
+use super::scene::Scene;
+use crate::geom::Ray;
+use crate::rng;
+
+/// How finely and how far rays are followed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct March {
+    /// Segment length as a fraction of the texture cell (1 = one sample per cell).
+    pub step: f32,
+    /// Transmittance below which a ray stops (the paper's cut-off).
+    pub cutoff: f32,
+    /// Added to the mip level the footprint asks for (negative: sharper, slower).
+    pub lod_bias: f32,
+    /// Extra mip levels for shadow rays, which need less detail.
+    pub shadow_lod: f32,
+    /// Russian roulette on shadow rays: a sample whose share of the pixel (transmittance x
+    /// opacity) is below this casts its shadow ray with probability share / this, and counts
+    /// it that many times more. Unbiased; 0 casts every shadow ray.
+    pub shadow_share: f32,
+}
+
+impl Default for March {
+    fn default() -> Self {
+        March {
+            step: 1.0,
+            cutoff: 1e-3,
+            lod_bias: 0.0,
+            shadow_lod: 1.0,
+            shadow_share: 0.05,
+        }
+    }
+}
+
+/// An instance the ray is inside of, with its ray in the texture's cell coordinates.
+#[derive(Clone, Copy)]
+pub(super) struct Active {
+    pub(super) instance: u32,
+    /// Index into the scene's texels.
+    pub(super) model: u32,
+    pub(super) exit: f32,
+    pub(super) level: usize,
+    /// Cell coordinates at t = 0 and per unit t.
+    pub(super) c0: Vec3,
+    pub(super) dc: Vec3,
+    /// Extinction per density, 1/m of the renderer's frame.
+    pub(super) sigma_scale: f32,
+    /// Segment length in this texture (m).
+    pub(super) step: f32,
+    /// Whether the ray's brick of this texture (`volume::Occupancy`) can hold density, and
+    /// until where along the ray that holds (`-inf`: not looked at yet).
+    pub(super) span: (bool, f32),
+}
+
+impl Active {
+    /// Instance `i` as a ray meets it (`local`: the ray in its model space, leaving at `exit`),
+    /// where the ray's footprint is `footprint` metres: the mip level whose cells match it, and
+    /// the ray in that level's cells.
+    pub(super) fn new(
+        scene: &Scene,
+        i: u32,
+        local: &Ray,
+        exit: f32,
+        footprint: f32,
+        lod_bias: f32,
+    ) -> Active {
+        let inst: &TreeTransform = scene.instances.get(i);
+        let texel = &scene.texels[scene.looks[inst.look as usize].texel];
+        let cell0 = texel.levels[0].cell as f32;
+        let wanted = (footprint / inst.scale / cell0).max(1.0).log2() + lod_bias;
+        let level = (wanted.max(0.0) as usize).min(texel.levels.len() - 1);
+        Active::at_level(scene, i, local, exit, level)
+    }
+
+    /// Instance `i` as a ray meets it (`local`, in its model space), read at mip level `level`.
+    pub(super) fn at_level(scene: &Scene, i: u32, local: &Ray, exit: f32, level: usize) -> Active {
+        let inst: &TreeTransform = scene.instances.get(i);
+        let texel = &scene.texels[scene.looks[inst.look as usize].texel];
+        let cell = texel.levels[level].cell as f32;
+        let origin = texel.origin().as_vec3();
+        let dir = local.dir;
+        // Extinction depends on direction only through the level's factors, constant along
+        // a straight ray: one multiplier per instance the ray meets.
+        let directional = texel.levels[level].directional_factor(dir);
+        Active {
+            instance: i,
+            model: inst.model,
+            exit,
+            level,
+            c0: (local.origin - origin) / cell,
+            dc: dir / cell,
+            sigma_scale: texel.info.extinction_scale as f32 * directional / inst.scale,
+            step: cell * inst.scale,
+            span: (true, f32::NEG_INFINITY),
+        }
+    }
+
+    /// Where this texture can next hold density along the ray from `t`, if the ray is in an
+    /// empty brick at `t`; `None` where it may hold some.
+    pub(super) fn empty_until(&mut self, scene: &Scene, t: f32) -> Option<f32> {
+        if t >= self.span.1 {
+            let occupancy = &scene.occupancy[self.model as usize][self.level];
+            self.span = occupancy.span(self.c0, self.dc, t, self.exit);
+        }
+        (!self.span.0).then_some(self.span.1)
+    }
+}
+
+/// The front-to-back walk of the instances along one ray: which are active (the ray is inside
+/// their box) at each point, and the mip level each is read at.
+pub(super) struct Walk<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) ray: Ray,
+    pub(super) intervals: Intervals<'a>,
+    pub(super) active: Vec<Active>,
+    /// Cone: footprint (m) at distance t is t x spread + base.
+    pub(super) spread: f32,
+    pub(super) base: f32,
+    pub(super) lod_bias: f32,
+}
+
+impl<'a> Walk<'a> {
+    pub(super) fn new(
+        scene: &'a Scene,
+        ray: Ray,
+        t_max: f32,
+        spread: f32,
+        base: f32,
+        lod_bias: f32,
+    ) -> Walk<'a> {
+        Walk {
+            scene,
+            ray,
+            intervals: scene.instances.intervals(ray, t_max),
+            active: Vec::new(),
+            spread,
+            base,
+            lod_bias,
+        }
+    }
+
+    /// Where the next instance or node begins, if any.
+    pub(super) fn next_entry(&self) -> Option<f32> {
+        self.intervals.next_entry()
+    }
+
+    /// Activates every instance the ray has entered by `t`.
+    pub(super) fn admit(&mut self, t: f32) {
+        while let Some((i, enter, exit)) = self.intervals.next_entered(t) {
+            let footprint = enter * self.spread + self.base;
+            let local = self.scene.instances.get(i).local_ray(&self.ray);
+            let a = Active::new(self.scene, i, &local, exit, footprint, self.lod_bias);
+            self.active.push(a);
+        }
+    }
+
+    pub(super) fn retire(&mut self, t: f32) {
+        self.active.retain(|a| a.exit > t);
+    }
+
+    /// Where the ray may next meet density, if every active texture is empty at `t` (and no
+    /// instance begins before): the march jumps there, skipping only what is exactly empty.
+    pub(super) fn empty_until(&mut self, t: f32) -> Option<f32> {
+        let mut until = self.next_entry().unwrap_or(f32::INFINITY);
+        for a in &mut self.active {
+            until = until.min(a.empty_until(self.scene, t)?);
+        }
+        (until > t).then_some(until)
+    }
+
+    /// Brings the walk to `t` and returns where the next segment starts: `t` itself while
+    /// the ray is inside some instance, else the next instance's entry; `None` past `t_max`.
+    pub(super) fn advance(&mut self, mut t: f32, t_max: f32) -> Option<f32> {
+        loop {
+            self.admit(t);
+            self.retire(t);
+            if !self.active.is_empty() {
+                return Some(t);
+            }
+            t = self.next_entry().filter(|&e| e < t_max)?;
+        }
+    }
+}
+
+/// The end of the segment starting at `t` (one step of the finest active texture, cut at the
+/// next event) and the jittered sample position inside it.
+pub(super) fn segment_end(walk: &Walk, t: f32, t_max: f32, step: f32, key: u64) -> (f32, f32) {
+    let mut end = t_max;
+    for a in &walk.active {
+        end = end.min(t + a.step * step).min(a.exit);
+    }
+    if let Some(e) = walk.next_entry() {
+        end = end.min(e.max(t));
+    }
+    // A zero-length segment cannot advance: guarantee progress by a hair.
+    if end <= t {
+        end = t + f32::EPSILON * t.max(1.0);
+    }
+    (end, t + rng::unit(key) as f32 * (end - t))
+}
