@@ -402,6 +402,11 @@ pub struct RenderArgs {
     /// (unbiased; larger: faster, noisier; 0 casts them all).
     #[arg(long, default_value_t = 0.05, value_name = "SHARE", value_parser = share)]
     pub shadow_share: f32,
+    /// Transmittance below which a view ray goes on only by Russian roulette, past each
+    /// segment with probability transmittance / this (unbiased; larger: fewer samples,
+    /// noisier; 0 marches every ray to --cutoff).
+    #[arg(long, default_value_t = 0.05, value_name = "SHARE", value_parser = share)]
+    pub view_share: f32,
     /// Mip levels added to what the pixel footprint asks for (negative: sharper, slower).
     #[arg(
         long,

@@ -41,6 +41,8 @@ pub mod purpose {
     pub const SEGMENT_LEAF: u64 = 0x6c66;
     /// Which part of a segment's mixture (wood or foliage) scatters its light.
     pub const SEGMENT_PART: u64 = 0x7061;
+    /// Whether a view ray whose transmittance has fallen low goes on past a segment.
+    pub const SEGMENT_GO_ON: u64 = 0x676f;
     /// The terrain hit's shadow ray: `hash3(ray key, 0, ..)` with these, which no segment
     /// purpose equals (a segment index in the middle slot once made the ground's stream that
     /// of segment 103).
@@ -168,6 +170,7 @@ mod purposes {
             SEGMENT_LIGHT,
             SEGMENT_LEAF,
             SEGMENT_PART,
+            SEGMENT_GO_ON,
             GROUND_ROULETTE,
             GROUND_LIGHT,
         ];

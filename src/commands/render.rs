@@ -173,6 +173,7 @@ fn settings(args: &RenderArgs) -> RenderSettings {
             lod_bias: args.lod_bias,
             shadow_lod: args.shadow_lod,
             shadow_share: args.shadow_share,
+            view_share: args.view_share,
         },
         crop: args.crop,
         seed: args.seed,

@@ -125,6 +125,17 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         if transmittance < march.cutoff {
             break;
         }
+        if transmittance < march.view_share {
+            // Russian roulette on what is left of the ray: it goes on with probability
+            // T / view_share, carrying view_share, so every later contribution (and the
+            // terrain or sky behind) keeps its expectation; most deep segments are not sampled.
+            let p = transmittance / march.view_share;
+            if rng::unit(rng::hash3(key, segment, purpose::SEGMENT_GO_ON)) as f32 >= p {
+                transmittance = 0.0;
+                break;
+            }
+            transmittance = march.view_share;
+        }
     }
     out.canopy = 1.0 - transmittance;
     let lighting = GroundLight { spread, key, march };

@@ -143,7 +143,8 @@ fn a_homogeneous_texel_seen_along_an_axis_transmits_exp_minus_sigma_length() {
             (t - want).abs() < 1e-3 * want.max(1e-3),
             "sigma {sigma}: {t} vs {want}"
         );
-        // The primary ray sees the same: its alpha is 1 - T.
+        // The primary ray sees the same: its alpha is 1 - T (marched to the end, not
+        // rouletted: one ray's transmittance is then exact, not only in expectation).
         let r = radiance(
             &scene,
             Vec3::NEG_Z,
@@ -151,6 +152,7 @@ fn a_homogeneous_texel_seen_along_an_axis_transmits_exp_minus_sigma_length() {
             3,
             &March {
                 cutoff: 0.0,
+                view_share: 0.0,
                 ..March::default()
             },
         );
@@ -509,6 +511,43 @@ fn russian_roulette_on_shadow_rays_saves_them_without_bias() {
             .iter()
             .zip(&roulette.rgba)
             .all(|(p, q)| p[3] == q[3])
+    );
+}
+
+/// Russian roulette on the rest of a view ray keeps radiance and alpha in expectation and
+/// takes fewer samples: rays through a fog ball at 256 spp, marched to the cut-off against
+/// rouletted from the first segment on (the most aggressive setting).
+#[test]
+fn russian_roulette_on_view_rays_saves_samples_without_bias() {
+    let (scene, camera) = fog_ball();
+    let image = |view_share: f32| {
+        render(
+            &scene,
+            &camera,
+            &RenderSettings {
+                spp: 256,
+                march: March {
+                    view_share,
+                    ..March::default()
+                },
+                ..RenderSettings::default()
+            },
+            &|_| {},
+        )
+    };
+    let (every, roulette) = (image(0.0), image(1.0));
+    for channel in [1, 3] {
+        let total = |f: &super::Film| f.rgba.iter().map(|p| f64::from(p[channel])).sum::<f64>();
+        let (a, b) = (total(&every), total(&roulette));
+        println!("channel {channel} summed: {a} marching to the cut-off, {b} with roulette");
+        assert!((a - b).abs() < 0.01 * a, "channel {channel}: {a} vs {b}");
+    }
+    let samples = |f: &super::Film| f.work().0;
+    assert!(
+        samples(&roulette) < 0.8 * samples(&every),
+        "{} vs {}",
+        samples(&roulette),
+        samples(&every)
     );
 }
 

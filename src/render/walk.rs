@@ -31,6 +31,10 @@ pub struct March {
     /// opacity) is below this casts its shadow ray with probability share / this, and counts
     /// it that many times more. Unbiased; 0 casts every shadow ray.
     pub shadow_share: f32,
+    /// Russian roulette on view rays: once the transmittance falls below this, a ray goes on
+    /// past each segment with probability transmittance / this, carrying this. Unbiased; 0
+    /// marches every ray to the cut-off.
+    pub view_share: f32,
 }
 
 impl Default for March {
@@ -41,6 +45,7 @@ impl Default for March {
             lod_bias: 0.0,
             shadow_lod: 1.0,
             shadow_share: 0.05,
+            view_share: 0.05,
         }
     }
 }
