@@ -125,22 +125,33 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         if transmittance < march.cutoff {
             break;
         }
-        if transmittance < march.view_share {
-            // Russian roulette on what is left of the ray: it goes on with probability
-            // T / view_share, carrying view_share, so every later contribution (and the
-            // terrain or sky behind) keeps its expectation; most deep segments are not sampled.
-            let p = transmittance / march.view_share;
-            if rng::unit(rng::hash3(key, segment, purpose::SEGMENT_GO_ON)) as f32 >= p {
-                transmittance = 0.0;
-                break;
-            }
-            transmittance = march.view_share;
-        }
+        let Some(left) = go_on(
+            transmittance,
+            march,
+            rng::hash3(key, segment, purpose::SEGMENT_GO_ON),
+        ) else {
+            transmittance = 0.0;
+            break;
+        };
+        transmittance = left;
     }
     out.canopy = 1.0 - transmittance;
     let lighting = GroundLight { spread, key, march };
     finish(scene, ray, ground_hit, transmittance, &lighting, &mut out);
     out
+}
+
+/// Russian roulette on what is left of a view ray with `transmittance` (`key` draws): below
+/// `march.view_share` it goes on with probability transmittance / view_share, carrying
+/// view_share, so every later contribution (and the terrain or sky behind) keeps its
+/// expectation while most deep segments are never sampled. The transmittance to go on with,
+/// or `None` where the ray stops.
+fn go_on(transmittance: f32, march: &March, key: u64) -> Option<f32> {
+    if transmittance >= march.view_share {
+        return Some(transmittance);
+    }
+    let p = transmittance / march.view_share;
+    ((rng::unit(key) as f32) < p).then_some(march.view_share)
 }
 
 /// A view-ray sample as [`scatter`] needs it.
