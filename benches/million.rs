@@ -6,67 +6,25 @@
 //! (targets: 60 s and 4 GiB). One run each: whole processes, timed from outside. The
 //! picture is left at `target/million.png`.
 
-use std::path::Path;
-use std::process::Command;
-use std::time::Instant;
+mod common;
 
-use texel_forest::procedural::{builder, terrain};
-
-/// The number just after `before` in `text` (the summary line's figures).
-fn number_after(text: &str, before: &str) -> Option<f64> {
-    let tail = &text[text.find(before)? + before.len()..];
-    tail.split_whitespace().next()?.parse().ok()
-}
+use common::{Bench, DENSE_SPACING, mountain_glb, number_after, root};
 
 fn main() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let texel = root.join("target/release/texel");
-    let build = Command::new(env!("CARGO"))
-        .args(["build", "--release", "--bin", "texel"])
-        .current_dir(root)
-        .status()
-        .expect("cargo runs");
-    assert!(build.success());
-    let dir = std::env::temp_dir().join(format!("texel-bench-million-{}", std::process::id()));
-    std::fs::create_dir_all(dir.join("trees")).expect("temp dir");
-    let run = |args: &[&str]| -> (f64, String) {
-        let start = Instant::now();
-        let o = Command::new(&texel)
-            .args(args)
-            .current_dir(&dir)
-            .output()
-            .expect("texel runs");
-        let err = String::from_utf8_lossy(&o.stderr).into_owned();
-        assert!(o.status.success(), "{err}");
-        (start.elapsed().as_secs_f64(), err)
-    };
-    for (tree, name) in [
-        ("conifer.glb", "conifer"),
-        ("broadleaf.gltf", "broadleaf"),
-        ("bare.glb", "bare"),
-    ] {
-        let model = root.join("fixtures/trees").join(tree);
-        let out = format!("trees/{name}.texel");
-        run(&["bake", model.to_str().unwrap(), "-o", &out, "-q"]);
-    }
-    // A young, dense stand: the fixture's species at 72% of their spacing.
+    let bench = Bench::new("million");
+    bench.bake_fixture_trees();
     let mut species: serde_json::Value = serde_json::from_slice(
-        &std::fs::read(root.join("fixtures/species/forest.json")).expect("fixture species"),
+        &std::fs::read(root().join("fixtures/species/forest.json")).expect("fixture species"),
     )
     .expect("JSON");
     for s in species["species"].as_array_mut().expect("species") {
         let spacing = s["spacing"].as_f64().expect("spacing");
-        s["spacing"] = serde_json::json!(spacing * 0.72);
+        s["spacing"] = serde_json::json!(spacing * DENSE_SPACING);
     }
-    std::fs::write(dir.join("species.json"), species.to_string()).expect("write");
-    let files = terrain::mountain(5500.0, 257, 11).to_gltf(None, "bench");
-    std::fs::write(
-        dir.join("mountain.glb"),
-        builder::glb(&files.doc, &files.bin),
-    )
-    .expect("write");
+    std::fs::write(bench.dir.join("species.json"), species.to_string()).expect("write");
+    std::fs::write(bench.dir.join("mountain.glb"), mountain_glb()).expect("write");
 
-    let (place, _) = run(&[
+    let (place, _) = bench.run(&[
         "place",
         "mountain.glb",
         "--species",
@@ -77,7 +35,7 @@ fn main() {
         "1000000",
         "-q",
     ]);
-    let bytes = std::fs::metadata(dir.join("forest.instances"))
+    let bytes = std::fs::metadata(bench.dir.join("forest.instances"))
         .expect("forest")
         .len();
     println!(
@@ -85,8 +43,8 @@ fn main() {
         bytes as f64 / 1e6
     );
     // The picture stays (target/million.png) for a person to look at.
-    let preview = root.join("target/million.png");
-    let (seconds, err) = run(&[
+    let preview = root().join("target/million.png");
+    let (seconds, err) = bench.run(&[
         "render",
         "forest.instances",
         "-o",
@@ -107,5 +65,4 @@ fn main() {
         figure("primary rays/s, "),
     );
     println!("  picture: {}", preview.display());
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,11 +2,14 @@
 //! their spacing) on a procedural mountain 5.5 km across and prints the time and the file's
 //! bytes per tree (targets: under 3 s, under 12 bytes).
 
+mod common;
+
 use std::time::Instant;
+
+use common::{DENSE_SPACING, mountain_glb};
 
 use texel_forest::formats::instances;
 use texel_forest::place::{self, PlaceSettings};
-use texel_forest::procedural::{builder, terrain};
 use texel_forest::provenance::SourceFile;
 use texel_forest::species::SpeciesFile;
 use texel_forest::terrain::Terrain;
@@ -15,15 +18,13 @@ fn main() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut species =
         SpeciesFile::load(&root.join("fixtures/species/forest.json")).expect("fixture species");
-    // A young, dense stand: the fixture's species at 72% of their spacing.
     for s in &mut species.species {
-        s.spacing *= 0.72;
+        s.spacing *= DENSE_SPACING;
     }
     let dir = std::env::temp_dir().join(format!("texel-bench-place-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let path = dir.join("mountain.glb");
-    let files = terrain::mountain(5500.0, 257, 11).to_gltf(None, "bench");
-    std::fs::write(&path, builder::glb(&files.doc, &files.bin)).expect("write");
+    std::fs::write(&path, mountain_glb()).expect("write");
 
     let start = Instant::now();
     let terrain = Terrain::load(&path, &Default::default()).expect("terrain");

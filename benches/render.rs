@@ -14,9 +14,12 @@
 //! paired with one of that build on the same inputs, in turn, and the ratio printed: speed
 //! claims are ratios measured in the same run.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Instant;
+
+use common::{Bench, number_before, root};
 
 use glam::{Vec3, vec3};
 use texel_forest::bake::{self, BakeSettings};
@@ -37,23 +40,10 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// The number just before `after` in `text` (the summary line's figures).
-fn number_before(text: &str, after: &str) -> Option<f64> {
-    let head = &text[..text.find(after)?];
-    head.split_whitespace().last()?.parse().ok()
-}
-
-fn render(texel: &Path, dir: &Path, args: &[&str]) -> Run {
-    let start = Instant::now();
-    let o = Command::new(texel)
-        .arg("render")
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("texel runs");
-    let seconds = start.elapsed().as_secs_f64();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{err}");
+fn render(bench: &Bench, texel: &Path, args: &[&str]) -> Run {
+    let mut all = vec!["render"];
+    all.extend_from_slice(args);
+    let (seconds, err) = bench.run_binary(texel, &all);
     Run {
         seconds,
         samples_per_pixel: number_before(&err, "volume samples").unwrap_or(0.0),
@@ -62,12 +52,12 @@ fn render(texel: &Path, dir: &Path, args: &[&str]) -> Run {
 }
 
 /// Medians of `RUNS` runs of this build, and of the baseline's where given, run in turn.
-fn measure(texel: &Path, baseline: Option<&Path>, dir: &Path, args: &[&str]) -> (Run, Option<Run>) {
+fn measure(bench: &Bench, baseline: Option<&Path>, args: &[&str]) -> (Run, Option<Run>) {
     let (mut a, mut b) = (Vec::new(), Vec::new());
     for _ in 0..RUNS {
-        a.push(render(texel, dir, args));
+        a.push(render(bench, &bench.texel, args));
         if let Some(base) = baseline {
-            b.push(render(base, dir, args));
+            b.push(render(bench, base, args));
         }
     }
     let med = |runs: &[Run]| Run {
@@ -120,46 +110,20 @@ fn trilinear_limit(root: &Path) -> f64 {
 }
 
 fn main() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let texel = root.join("target/release/texel");
-    let build = Command::new(env!("CARGO"))
-        .args(["build", "--release", "--bin", "texel"])
-        .current_dir(root)
-        .status()
-        .expect("cargo runs");
-    assert!(build.success());
+    let bench = Bench::new("render");
     let baseline: Option<PathBuf> = std::env::var_os("TEXEL_BASELINE").map(PathBuf::from);
-    let dir = std::env::temp_dir().join(format!("texel-bench-render-{}", std::process::id()));
-    std::fs::create_dir_all(dir.join("trees")).expect("temp dir");
-    let run = |args: &[&str]| {
-        let o = Command::new(&texel)
-            .args(args)
-            .current_dir(&dir)
-            .output()
-            .expect("texel runs");
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    };
     std::fs::copy(
-        root.join("fixtures/species/forest.json"),
-        dir.join("species.json"),
+        root().join("fixtures/species/forest.json"),
+        bench.dir.join("species.json"),
     )
     .expect("copy");
-    for (tree, name) in [
-        ("conifer.glb", "conifer"),
-        ("broadleaf.gltf", "broadleaf"),
-        ("bare.glb", "bare"),
-    ] {
-        run(&[
-            "bake",
-            root.join("fixtures/trees").join(tree).to_str().unwrap(),
-            "-o",
-            &format!("trees/{name}.texel"),
-            "-q",
-        ]);
-    }
-    run(&[
+    bench.bake_fixture_trees();
+    bench.run(&[
         "place",
-        root.join("fixtures/terrain/mountain.glb").to_str().unwrap(),
+        root()
+            .join("fixtures/terrain/mountain.glb")
+            .to_str()
+            .expect("UTF-8 path"),
         "--species",
         "species.json",
         "-o",
@@ -174,7 +138,7 @@ fn main() {
             .map_or(String::new(), |b| format!("; baseline {}", b.display()))
     );
     let base = baseline.as_deref();
-    let limit = trilinear_limit(root);
+    let limit = trilinear_limit(root());
 
     let demo = [
         "forest.instances",
@@ -185,7 +149,7 @@ fn main() {
         "--height",
         "1080",
     ];
-    let (a, b) = measure(&texel, base, &dir, &demo);
+    let (a, b) = measure(&bench, base, &demo);
     let per_core = a.samples_per_pixel * 1920.0 * 1080.0 / a.seconds / cores as f64;
     println!(
         "demo frame 1920x1080, 1 spp, texel  {:>7.2} s  {:>5.1} volume samples and {:.1} shadow rays per pixel{}",
@@ -213,7 +177,7 @@ fn main() {
         "--height",
         "540",
     ];
-    let (a, b) = measure(&texel, base, &dir, &near);
+    let (a, b) = measure(&bench, base, &near);
     println!(
         "near view 960x540, 1 spp, texel      {:>7.2} s  {:>5.1} volume samples per pixel{}{}",
         a.seconds,
@@ -238,12 +202,11 @@ fn main() {
         "--spp",
         "16",
     ];
-    let (a, b) = measure(&texel, base, &dir, &mesh);
+    let (a, b) = measure(&bench, base, &mesh);
     println!(
         "demo frame 1280x720, 16 spp, mesh   {:>7.2} s  {:.2e} samples per second{}",
         a.seconds,
         16.0 * 1280.0 * 720.0 / a.seconds,
         versus(a.seconds, b.map(|b| b.seconds))
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -201,14 +201,21 @@ impl Level {
         let Some((idx, w)) = self.trilinear(c) else {
             return [0.0; 2];
         };
-        std::array::from_fn(|p| (0..8).map(|k| self.density[p][idx[k]] * w[k]).sum())
+        std::array::from_fn(|p| self.weighted_density(p, &idx, &w))
+    }
+
+    /// Part `p`'s density from trilinear cells and weights: the one sum every query makes,
+    /// so all of them read the same bits.
+    #[inline(always)]
+    fn weighted_density(&self, p: usize, idx: &[usize; 8], w: &[f32; 8]) -> f32 {
+        let density = &self.density[p];
+        (0..8).map(|k| density[idx[k]] * w[k]).sum()
     }
 
     /// What a renderer's sample reads at `c`, from one set of trilinear weights: both
-    /// densities, and a part's gradient only where it has density; the wood's albedo likewise.
-    /// The foliage's baked albedo is not read (a species' seasonal colour replaces it):
-    /// `albedo[1]` stays zero. Leaf moments, needed only by a lit leaf, are
-    /// [`Level::foliage_leaves`].
+    /// densities, and a part's gradient only where it has density; the wood's albedo likewise
+    /// (the foliage's baked albedo is not read: a species' seasonal colour replaces it). Leaf
+    /// moments, needed only by a lit leaf, are [`Level::foliage_leaves`].
     #[inline]
     pub fn fetch(&self, c: Vec3) -> Fetch {
         let Some((idx, w)) = self.trilinear(c) else {
@@ -216,8 +223,7 @@ impl Level {
         };
         let mut f = Fetch::default();
         for p in 0..2 {
-            let density = &self.density[p];
-            f.density[p] = (0..8).map(|k| density[idx[k]] * w[k]).sum();
+            f.density[p] = self.weighted_density(p, &idx, &w);
         }
         for p in 0..2 {
             if f.density[p] <= 0.0 {
@@ -231,7 +237,7 @@ impl Level {
         if f.density[0] > 0.0 {
             let albedo = &self.albedo[0];
             for k in 0..8 {
-                f.albedo[0] += Vec3::from(albedo[idx[k]]) * w[k];
+                f.wood_albedo += Vec3::from(albedo[idx[k]]) * w[k];
             }
         }
         f
@@ -242,8 +248,7 @@ impl Level {
     #[inline]
     pub fn foliage_leaves(&self, c: Vec3) -> Option<(f32, [f32; 6])> {
         let (idx, w) = self.trilinear(c)?;
-        let density = &self.density[1];
-        let d: f32 = (0..8).map(|k| density[idx[k]] * w[k]).sum();
+        let d = self.weighted_density(1, &idx, &w);
         if d <= 0.0 {
             return None;
         }
@@ -333,7 +338,8 @@ const SMALL_BRICKS: usize = 4;
 pub struct Occupancy {
     dims: [usize; 3],
     occupied: Vec<bool>,
-    /// Every brick occupied (coarse levels, dense crowns): nothing to skip, nothing to look up.
+    /// Marched without looking at the bricks: every brick occupied (dense crowns), or so few
+    /// bricks that a walk over them costs what it saves (coarse levels).
     full: bool,
 }
 
@@ -457,7 +463,7 @@ impl Occupancy {
 pub struct Fetch {
     pub density: [f32; 2],
     pub gradient: [Vec3; 2],
-    pub albedo: [Vec3; 2],
+    pub wood_albedo: Vec3,
 }
 
 /// Outward unit normal from a density gradient (`-g / |g|`), or `None` where the gradient
@@ -705,7 +711,7 @@ mod tests {
             assert!((d[1] - 2.0 * d[0]).abs() < 1e-5);
             let all = l.fetch(p);
             assert_eq!(all.density, d);
-            assert!((all.albedo[0].x - d[0]).abs() < 1e-5);
+            assert!((all.wood_albedo.x - d[0]).abs() < 1e-5);
         }
         // The outer half cell holds the edge value: x = 0.2 reads as x = 0.5.
         assert!((l.density_at(Vec3::new(0.2, 1.0, 2.0))[0] - f(0.5, 1.0, 2.0)).abs() < 1e-5);

@@ -161,25 +161,11 @@ pub fn closed_triangles(mesh: &Mesh) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::import::{Material, Triangle};
-    use glam::{Vec2, Vec3, Vec4};
+    use crate::import::Material;
+    use glam::Vec3;
 
     fn mesh(positions: Vec<Vec3>, tris: &[[u32; 3]]) -> Mesh {
-        let n = positions.len();
-        Mesh {
-            positions,
-            uvs: vec![Vec2::ZERO; n],
-            colors: vec![Vec4::ONE; n],
-            triangles: tris
-                .iter()
-                .map(|&vertices| Triangle {
-                    vertices,
-                    material: 0,
-                })
-                .collect(),
-            materials: vec![Material::default()],
-            textures: vec![],
-        }
+        Mesh::plain(positions, tris, Material::default())
     }
 
     #[test]

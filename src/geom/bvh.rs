@@ -18,7 +18,7 @@ const WIDTH: usize = 4;
 /// which halves the count each time: the tree's depth stays below 48 + 32 whatever the input
 /// (and its build time n log n).
 const SAH_DEPTH: u32 = 48;
-/// Traversal's stack on the stack; deeper entries (rare: three per level) spill to the heap.
+/// Waiting children a traversal keeps on the stack before spilling to the heap.
 const STACK: usize = 40;
 
 /// A node of the binary build.
@@ -60,6 +60,11 @@ impl Wide {
         }
         self.start[k] = start;
         self.count[k] = count;
+    }
+
+    /// The slots in use.
+    fn used(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..WIDTH).filter(|&k| self.start[k] != EMPTY)
     }
 
     fn bounds(&self, k: usize) -> Aabb {
@@ -157,17 +162,15 @@ impl Bvh {
     /// each child's box and content.
     pub fn children(&self, n: u32) -> impl Iterator<Item = (Aabb, NodeContent<'_>)> {
         let node = &self.nodes[n as usize];
-        (0..WIDTH)
-            .filter(|&k| node.start[k] != EMPTY)
-            .map(move |k| {
-                let content = if node.count[k] == 0 {
-                    NodeContent::Inner(node.start[k])
-                } else {
-                    let s = node.start[k] as usize;
-                    NodeContent::Leaf(&self.order[s..s + node.count[k] as usize])
-                };
-                (node.bounds(k), content)
-            })
+        node.used().map(move |k| {
+            let content = if node.count[k] == 0 {
+                NodeContent::Inner(node.start[k])
+            } else {
+                let s = node.start[k] as usize;
+                NodeContent::Leaf(&self.order[s..s + node.count[k] as usize])
+            };
+            (node.bounds(k), content)
+        })
     }
 
     /// Walks the nodes `ray` crosses within (t_min, t_max), nearest first, calling `test` on
@@ -180,24 +183,10 @@ impl Bvh {
         t_max: f32,
         mut test: impl FnMut(u32, f32) -> Option<f32>,
     ) -> f32 {
-        self.traverse_slots(ray, t_min, t_max, |slot, t| {
-            test(self.order[slot as usize], t)
-        })
-    }
-
-    /// [`Bvh::traverse`], naming each primitive by its position in [`Bvh::order`], so a caller
-    /// that keeps its primitives' data in that order reads them without an indirection.
-    pub fn traverse_slots(
-        &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        mut test: impl FnMut(u32, f32) -> Option<f32>,
-    ) -> f32 {
         self.traverse_leaves(ray, t_min, t_max, |start, count, mut t_max| {
             let mut hit = None;
-            for slot in start..start + count {
-                if let Some(t) = test(slot, t_max) {
+            for &p in &self.order[start as usize..(start + count) as usize] {
+                if let Some(t) = test(p, t_max) {
                     t_max = t_max.min(t);
                     hit = Some(t_max);
                     if t_max <= t_min {
@@ -212,8 +201,8 @@ impl Bvh {
     /// The leaves as ranges of [`Bvh::order`] (`start`, `count`), each once.
     pub fn leaves(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
         self.nodes.iter().flat_map(|node| {
-            (0..WIDTH)
-                .filter(|&k| node.start[k] != EMPTY && node.count[k] > 0)
+            node.used()
+                .filter(|&k| node.count[k] > 0)
                 .map(|k| (node.start[k], node.count[k]))
         })
     }
@@ -228,10 +217,7 @@ impl Bvh {
         mut test: impl FnMut(u32, u32, f32) -> Option<f32>,
     ) -> f32 {
         let slab = SlabRay::new(ray);
-        // Children waiting, with where the ray enters them: (start, count, enter).
-        let mut stack = [(0u32, 0u32, 0f32); STACK];
-        let mut spill = Vec::new();
-        let mut top = 0;
+        let mut waiting = Waiting::new();
         let (mut start, mut count) = (0u32, 0u32);
         loop {
             if count == 0 {
@@ -254,13 +240,7 @@ impl Bvh {
                 }
                 if n > 0 {
                     for &(e, k) in hits[1..n].iter().rev() {
-                        let entry = (node.start[k], node.count[k], e);
-                        if top < STACK {
-                            stack[top] = entry;
-                        } else {
-                            spill.push(entry);
-                        }
-                        top += 1;
+                        waiting.push((node.start[k], node.count[k], e));
                     }
                     let k = hits[0].1;
                     (start, count) = (node.start[k], node.count[k]);
@@ -272,15 +252,10 @@ impl Bvh {
                     return t_max;
                 }
             }
+            // The nearest waiting child the ray still reaches before its nearest hit.
             loop {
-                if top == 0 {
+                let Some((s, c, e)) = waiting.pop() else {
                     return t_max;
-                }
-                top -= 1;
-                let (s, c, e) = if top < STACK {
-                    stack[top]
-                } else {
-                    spill.pop().unwrap_or_default()
                 };
                 if e <= t_max {
                     (start, count) = (s, c);
@@ -288,6 +263,42 @@ impl Bvh {
                 }
             }
         }
+    }
+}
+
+/// Children waiting in a traversal, with where the ray enters them: (start, count, enter),
+/// like a slot. A small array on the stack (no allocation, little to initialise); the rare
+/// deeper entries (three per level) spill to the heap.
+struct Waiting {
+    near: [(u32, u32, f32); STACK],
+    len: usize,
+    spill: Vec<(u32, u32, f32)>,
+}
+
+impl Waiting {
+    fn new() -> Waiting {
+        Waiting {
+            near: [(0, 0, 0.0); STACK],
+            len: 0,
+            spill: Vec::new(),
+        }
+    }
+
+    fn push(&mut self, entry: (u32, u32, f32)) {
+        if self.len < STACK {
+            self.near[self.len] = entry;
+            self.len += 1;
+        } else {
+            self.spill.push(entry);
+        }
+    }
+
+    fn pop(&mut self) -> Option<(u32, u32, f32)> {
+        if let Some(entry) = self.spill.pop() {
+            return Some(entry);
+        }
+        self.len = self.len.checked_sub(1)?;
+        Some(self.near[self.len])
     }
 }
 
@@ -535,6 +546,21 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Past the array, waiting children spill to the heap and still come back last in,
+    /// first out, each once.
+    #[test]
+    fn waiting_children_come_back_in_order_past_the_array() {
+        let mut w = Waiting::new();
+        let n = 3 * STACK as u32;
+        for i in 0..n {
+            w.push((i, 1, i as f32));
+        }
+        for i in (0..n).rev() {
+            assert_eq!(w.pop(), Some((i, 1, i as f32)));
+        }
+        assert_eq!(w.pop(), None);
     }
 
     /// Primitives spaced so the surface-area splits cut one off at a time: the tree's depth

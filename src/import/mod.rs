@@ -88,6 +88,29 @@ impl Default for Material {
     }
 }
 
+#[cfg(test)]
+impl Mesh {
+    /// A mesh of `triangles` over `positions`, all of one `material`, untextured and white:
+    /// the small meshes tests build by hand.
+    pub fn plain(positions: Vec<Vec3>, triangles: &[[u32; 3]], material: Material) -> Mesh {
+        let n = positions.len();
+        Mesh {
+            positions,
+            uvs: vec![Vec2::ZERO; n],
+            colors: vec![Vec4::ONE; n],
+            triangles: triangles
+                .iter()
+                .map(|&vertices| Triangle {
+                    vertices,
+                    material: 0,
+                })
+                .collect(),
+            materials: vec![material],
+            textures: vec![],
+        }
+    }
+}
+
 impl Mesh {
     /// The axis-aligned bounds of the vertices that triangles use.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {

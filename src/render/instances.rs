@@ -6,11 +6,12 @@
 //!
 //! - [`Instances::visit`]: every instance the ray meets, in no particular order (shadow rays:
 //!   optical depth is a sum; any-hit and nearest-hit queries);
-//! - [`Instances::nearest`] and [`Instances::any`]: the closest hit, or whether there is one;
+//! - [`Instances::nearest`]: the closest hit;
 //! - [`Instances::intervals`]: the instances' intervals along the ray, front to back, as the
 //!   ray advances (view rays through overlapping volumes);
-//! - [`Beam::visit`]: [`Instances::visit`] for rays along one direction fixed for the frame
-//!   (the sun's), from a grid across it instead of the hierarchy.
+//! - [`Beam::visit`] and [`Beam::any`]: [`Instances::visit`], and whether there is a hit, for
+//!   rays along one direction fixed for the frame (the sun's), from a grid across it instead
+//!   of the hierarchy.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -174,16 +175,6 @@ impl Instances {
         best
     }
 
-    /// Whether any instance has a hit before `t_max`: `hit(i, local ray, t_max)`.
-    pub fn any(&self, ray: &Ray, t_max: f32, mut hit: impl FnMut(u32, &Ray, f32) -> bool) -> bool {
-        let mut found = false;
-        self.visit(ray, t_max, |i, local, t_max| {
-            found = hit(i, local, t_max);
-            found.then_some(0.0)
-        });
-        found
-    }
-
     /// The instances' intervals along `ray` before `t_max`, front to back, opened lazily as the
     /// ray advances.
     pub fn intervals(&self, ray: Ray, t_max: f32) -> Intervals<'_> {
@@ -238,6 +229,23 @@ impl Beam {
         self.0.visit(ray, t_max, |i, t_max| {
             f(i, &instances.get(i).local_ray(ray), t_max)
         });
+    }
+
+    /// Whether any instance has a hit before `t_max` (`hit(i, local ray, t_max)`): a shadow
+    /// ray's any-hit query.
+    pub fn any(
+        &self,
+        instances: &Instances,
+        ray: &Ray,
+        t_max: f32,
+        mut hit: impl FnMut(u32, &Ray, f32) -> bool,
+    ) -> bool {
+        let mut found = false;
+        self.visit(instances, ray, t_max, |i, local, t_max| {
+            found = hit(i, local, t_max);
+            found.then_some(0.0)
+        });
+        found
     }
 }
 

@@ -298,7 +298,7 @@ fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
         m.wood += wood;
         m.wood_shown += wood * level.wood_weight;
         m.foliage += foliage;
-        m.albedo_wood += f.albedo[0] * wood;
+        m.albedo_wood += f.wood_albedo * wood;
         m.albedo_foliage += look.foliage_albedo * foliage;
         // Gradients are linear in density; per metre of the frame they shrink with scale.
         let per_metre = a.sigma_scale / inst.scale;

@@ -73,17 +73,14 @@ fn sun_hidden(scene: &Scene, origin: Vec3, key: u64) -> bool {
     {
         return true;
     }
-    let mut hidden = false;
     scene
         .sun_beam
-        .visit(&scene.instances, &ray, f32::INFINITY, |i, local, t_max| {
+        .any(&scene.instances, &ray, f32::INFINITY, |i, local, t_max| {
             let tree = tree_of(scene, scene.instances.get(i));
-            hidden = tree.triangles.occluded(local, 0.0, t_max, |t, h| {
+            tree.triangles.occluded(local, 0.0, t_max, |t, h| {
                 present(scene, i, tree, t, h.w, key)
-            });
-            hidden.then_some(0.0)
-        });
-    hidden
+            })
+        })
 }
 
 /// `n` turned to face the eye looking along `dir`: surfaces are two-sided.

@@ -9,31 +9,15 @@ use super::scene::{Lighting, Look, Scene, Sun};
 use super::tests::{HEAD_ON, PLAIN, ground, look, placed, uniform_texel};
 use super::{Camera, Method, RenderSettings, render};
 use crate::bake::{self, BakeSettings};
-use crate::import::{AlphaMode, Material, Mesh, Triangle};
+use crate::import::{AlphaMode, Material, Mesh};
 
 /// A mesh of quads (corners counter-clockwise seen from the side they face), one material.
 fn quads(quads: &[[Vec3; 4]], material: Material) -> Mesh {
-    let mut m = Mesh {
-        positions: vec![],
-        uvs: vec![],
-        colors: vec![],
-        triangles: vec![],
-        materials: vec![material],
-        textures: vec![],
-    };
-    for q in quads {
-        let base = m.positions.len() as u32;
-        m.positions.extend_from_slice(q);
-        m.uvs.extend([glam::Vec2::ZERO; 4]);
-        m.colors.extend([Vec4::ONE; 4]);
-        for vertices in [[0, 1, 2], [0, 2, 3]] {
-            m.triangles.push(Triangle {
-                vertices: vertices.map(|v| base + v),
-                material: 0,
-            });
-        }
-    }
-    m
+    let positions = quads.iter().flatten().copied().collect();
+    let triangles: Vec<[u32; 3]> = (0..quads.len() as u32)
+        .flat_map(|q| [[0, 1, 2], [0, 2, 3]].map(|t| t.map(|v| 4 * q + v)))
+        .collect();
+    Mesh::plain(positions, &triangles, material)
 }
 
 fn material(name: &str, albedo: f32, alpha: f32, alpha_mode: AlphaMode) -> Material {

@@ -9,7 +9,7 @@ use super::walk::March;
 use super::{Camera, RenderSettings, render};
 use crate::bake::{mip_chain, sobel};
 use crate::geom::Ray;
-use crate::import::{Material, Mesh, Triangle};
+use crate::import::{Material, Mesh};
 use crate::rng;
 use crate::volume::{BakeParameters, DensityModel, ISOTROPIC_LEAVES, Level, Texel, TexelInfo};
 
@@ -74,26 +74,14 @@ pub(super) fn placed(position: DVec3) -> Placed {
 pub(super) fn ground(y: f32, half: f32, albedo: f32) -> Mesh {
     let p = [(-half, -half), (half, -half), (half, half), (-half, half)]
         .map(|(x, z)| Vec3::new(x, y, z));
-    Mesh {
-        positions: p.to_vec(),
-        uvs: vec![glam::Vec2::ZERO; 4],
-        colors: vec![Vec4::ONE; 4],
-        triangles: vec![
-            Triangle {
-                vertices: [0, 2, 1],
-                material: 0,
-            },
-            Triangle {
-                vertices: [0, 3, 2],
-                material: 0,
-            },
-        ],
-        materials: vec![Material {
+    Mesh::plain(
+        p.to_vec(),
+        &[[0, 2, 1], [0, 3, 2]],
+        Material {
             base_color: Vec4::new(albedo, albedo, albedo, 1.0),
             ..Material::default()
-        }],
-        textures: vec![],
-    }
+        },
+    )
 }
 
 pub(super) const PLAIN: Shading = Shading {
@@ -474,23 +462,24 @@ fn skipping_empty_space_changes_the_work_not_the_image() {
     }
 }
 
+/// The fog ball at 256 samples per pixel, marched as `march` says.
+fn fog_ball_at_256_spp(march: March) -> super::Film {
+    let (scene, camera) = fog_ball();
+    let settings = RenderSettings {
+        spp: 256,
+        march,
+        ..RenderSettings::default()
+    };
+    render(&scene, &camera, &settings, &|_| {})
+}
+
 #[test]
 fn russian_roulette_on_shadow_rays_saves_them_without_bias() {
-    let (scene, camera) = fog_ball();
-    let image = |shadow_share: f32| {
-        render(
-            &scene,
-            &camera,
-            &RenderSettings {
-                spp: 256,
-                march: March {
-                    shadow_share,
-                    ..March::default()
-                },
-                ..RenderSettings::default()
-            },
-            &|_| {},
-        )
+    let image = |shadow_share| {
+        fog_ball_at_256_spp(March {
+            shadow_share,
+            ..March::default()
+        })
     };
     let (every, roulette) = (image(0.0), image(1.0));
     let total = |f: &super::Film| f.rgba.iter().map(|p| f64::from(p[1])).sum::<f64>();
@@ -519,21 +508,11 @@ fn russian_roulette_on_shadow_rays_saves_them_without_bias() {
 /// rouletted from the first segment on (the most aggressive setting).
 #[test]
 fn russian_roulette_on_view_rays_saves_samples_without_bias() {
-    let (scene, camera) = fog_ball();
-    let image = |view_share: f32| {
-        render(
-            &scene,
-            &camera,
-            &RenderSettings {
-                spp: 256,
-                march: March {
-                    view_share,
-                    ..March::default()
-                },
-                ..RenderSettings::default()
-            },
-            &|_| {},
-        )
+    let image = |view_share| {
+        fog_ball_at_256_spp(March {
+            view_share,
+            ..March::default()
+        })
     };
     let (every, roulette) = (image(0.0), image(1.0));
     for channel in [1, 3] {

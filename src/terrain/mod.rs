@@ -100,9 +100,9 @@ impl Terrain {
 
 #[cfg(test)]
 mod tests {
-    use glam::{Vec2, Vec3, Vec4};
+    use glam::Vec3;
 
-    use crate::import::{Material, Mesh, Triangle};
+    use crate::import::{Material, Mesh};
 
     /// A ridge of two sloping triangles: the surface's height where the point's shadow falls
     /// in either, the higher where they overlap, none off the mesh.
@@ -114,23 +114,7 @@ mod tests {
             Vec3::new(0.0, 0.0, 10.0),
             Vec3::new(10.0, 20.0, 10.0),
         ];
-        let mesh = Mesh {
-            uvs: vec![Vec2::ZERO; 4],
-            colors: vec![Vec4::ONE; 4],
-            positions,
-            triangles: vec![
-                Triangle {
-                    vertices: [0, 1, 2],
-                    material: 0,
-                },
-                Triangle {
-                    vertices: [1, 3, 2],
-                    material: 0,
-                },
-            ],
-            materials: vec![Material::default()],
-            textures: vec![],
-        };
+        let mesh = Mesh::plain(positions, &[[0, 1, 2], [1, 3, 2]], Material::default());
         let h = |x, z| super::Terrain::surface_height(&mesh, x, z);
         assert!((h(2.0, 2.0).unwrap() - 2.0).abs() < 1e-9);
         assert!((h(8.0, 8.0).unwrap() - 14.0).abs() < 1e-9);
