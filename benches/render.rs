@@ -7,7 +7,9 @@
 //!   memory system);
 //! - the near view (`--eye -60,260,480 --target 0,240,300`, 960 x 540, 1 spp): seconds and
 //!   volume samples per pixel;
-//! - the demo frame at 1280 x 720, 16 spp, mesh method: seconds and samples per second.
+//! - the demo frame at 1280 x 720, 16 spp, mesh method: seconds and samples per second;
+//! - the hybrid method against both pure methods on the demo frame and the near view, 1 spp
+//!   (no baseline: older builds have no hybrid method).
 //!
 //! Every figure is the median of 3 whole `texel render` runs. With `TEXEL_BASELINE=path` (the
 //! `texel` binary of another build, e.g. the previous commit's) each run of this build is
@@ -209,4 +211,20 @@ fn main() {
         16.0 * 1280.0 * 720.0 / a.seconds,
         versus(a.seconds, b.map(|b| b.seconds))
     );
+
+    for (name, frame) in [
+        ("demo frame 1920x1080", &demo[..]),
+        ("near view 960x540", &near[..]),
+    ] {
+        let time = |method: &str| {
+            let mut args = frame.to_vec();
+            args.extend_from_slice(&["--method", method]);
+            measure(&bench, None, &args).0
+        };
+        let (texel, mesh, hybrid) = (time("texel"), time("mesh"), time("hybrid"));
+        println!(
+            "{name}, 1 spp: hybrid {:.2} s ({:.1} volume samples per pixel), texel {:.2} s, mesh {:.2} s",
+            hybrid.seconds, hybrid.samples_per_pixel, texel.seconds, mesh.seconds
+        );
+    }
 }

@@ -195,6 +195,14 @@ fn lod_bias(s: &str) -> Result<f32, String> {
     within(s, -16.0, 16.0, "mip levels").map(|v| v as f32)
 }
 
+fn lod_switch(s: &str) -> Result<f32, String> {
+    within(s, 1.0 / 1024.0, 1024.0, "texture cells per footprint").map(|v| v as f32)
+}
+
+fn lod_band(s: &str) -> Result<f32, String> {
+    within(s, 0.0, 16.0, "octaves of footprint").map(|v| v as f32)
+}
+
 fn shadow_lod(s: &str) -> Result<f32, String> {
     within(s, 0.0, 16.0, "mip levels").map(|v| v as f32)
 }
@@ -366,10 +374,21 @@ pub struct RenderArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=65536))]
     pub spp: u32,
-    /// What draws the trees: their 3D textures, or the glTF models the textures were baked
-    /// from (the conventional method; the ground truth at many samples per pixel).
+    /// What draws the trees: their 3D textures, the glTF models the textures were baked
+    /// from (the conventional method; the ground truth at many samples per pixel), or each
+    /// tree whichever of the two its footprint needs.
     #[arg(long, value_enum, default_value_t = MethodArg::Texel)]
     pub method: MethodArg,
+    /// Hybrid method: the pixel footprint at a tree, in its finest texture cells, at which it
+    /// is drawn from its texture and its model with equal chance (smaller footprints: the
+    /// model; larger: the texture).
+    #[arg(long, default_value_t = 1.0, value_name = "CELLS", value_parser = lod_switch)]
+    pub lod_switch: f32,
+    /// Hybrid method: the width of the transition around --lod-switch, in octaves of
+    /// footprint, across which trees are drawn by either at random in proportion (0: a hard
+    /// switch).
+    #[arg(long, default_value_t = 1.0, value_name = "OCTAVES", value_parser = lod_band)]
+    pub lod_band: f32,
     /// Render only this part of the frame (pixels, x1 and y1 exclusive); equals the same region
     /// of a full render bit for bit.
     #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = crop)]
@@ -377,7 +396,7 @@ pub struct RenderArgs {
     /// Also write an sRGB preview over a sky, for people.
     #[arg(long, value_name = "FRAME.png")]
     pub preview: Option<PathBuf>,
-    /// Extra EXR layers: normal, albedo, canopy, species, samples (comma-separated).
+    /// Extra EXR layers: normal, albedo, canopy, species, lod, samples (comma-separated).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub aov: Vec<AovArg>,
     /// Write colour and AOVs as half floats (depth stays float).
@@ -433,6 +452,8 @@ pub enum MethodArg {
     Texel,
     /// Ray tracing the polygon models, with alpha-masked leaves.
     Mesh,
+    /// Each tree as its footprint needs: the model near, the texture far (--lod-switch).
+    Hybrid,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -441,6 +462,9 @@ pub enum AovArg {
     Albedo,
     Canopy,
     Species,
+    /// Coverage drawn by meshes and by textures (lod.mesh, lod.texel): the hybrid method's
+    /// transitions.
+    Lod,
     /// Volume samples and shadow rays per pixel: where the time goes.
     Samples,
 }

@@ -53,6 +53,9 @@ pub mod purpose {
     pub const MESH_SHADOW: u64 = 0x73;
     pub const MESH_LEAF: u64 = 0x6c65_6166;
     pub const MESH_BLEND: u64 = 0x7472_6163_6564;
+    /// The hybrid method: whether a sample draws an instance (`hash3(sample key, instance,
+    /// ..)`) from its texture or its polygon model, inside the transition band.
+    pub const LOD: u64 = 0x006c_6f64;
     // Measurement (accuracy report, tests).
     pub const SILHOUETTE_PIXEL: u64 = 0x0073_696c;
     pub const SILHOUETTE_DIRECTION: u64 = 0x0064_6972;

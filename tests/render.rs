@@ -108,30 +108,30 @@ fn renders_an_exr_that_openexr_reads_with_depth_aovs_and_camera_matrices() {
 #[test]
 fn a_crop_equals_its_region_of_the_full_frame_and_threads_do_not_matter() {
     let dir = small_forest();
-    assert!(
-        render(dir.path(), &["-o", "full.exr", "--threads", "1", "--half"])
-            .status
-            .success()
-    );
-    assert!(
-        render(dir.path(), &["-o", "full2.exr", "--threads", "2", "--half"])
-            .status
-            .success()
-    );
-    let o = render(
-        dir.path(),
-        &["-o", "crop.exr", "--crop", "10,5,40,30", "--half"],
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
-    let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
-    assert_eq!(read("full.exr"), read("full2.exr"));
-    let full = exr::prelude::read_all_flat_layers_from_file(dir.path().join("full.exr")).unwrap();
-    let crop = exr::prelude::read_all_flat_layers_from_file(dir.path().join("crop.exr")).unwrap();
-    let (f, c) = (&full.layer_data[0], &crop.layer_data[0]);
-    assert_eq!(c.size, exr::prelude::Vec2(30, 25));
-    assert_eq!(c.attributes.layer_position, exr::prelude::Vec2(10, 5));
-    for name in ["R", "A", "Z"] {
-        let values = |l: &exr::image::Layer<exr::image::AnyChannels<exr::image::FlatSamples>>| {
+    // The hybrid method with a switch and band that draw this view's trees both ways.
+    let hybrid = ["--method", "hybrid", "--lod-switch", "2", "--lod-band", "2"];
+    for method in [&[][..], &hybrid[..]] {
+        let run = |extra: &[&str]| {
+            let mut a = extra.to_vec();
+            a.extend_from_slice(&["--half", "--aov", "lod,canopy"]);
+            a.extend_from_slice(method);
+            let o = render(dir.path(), &a);
+            assert!(o.status.success(), "{}", stderr(&o));
+        };
+        run(&["-o", "full.exr", "--threads", "1"]);
+        run(&["-o", "full2.exr", "--threads", "2"]);
+        run(&["-o", "crop.exr", "--crop", "10,5,40,30"]);
+        let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
+        assert_eq!(read("full.exr"), read("full2.exr"), "{method:?}");
+        let full =
+            exr::prelude::read_all_flat_layers_from_file(dir.path().join("full.exr")).unwrap();
+        let crop =
+            exr::prelude::read_all_flat_layers_from_file(dir.path().join("crop.exr")).unwrap();
+        let (f, c) = (&full.layer_data[0], &crop.layer_data[0]);
+        assert_eq!(c.size, exr::prelude::Vec2(30, 25));
+        assert_eq!(c.attributes.layer_position, exr::prelude::Vec2(10, 5));
+        let values = |l: &exr::image::Layer<exr::image::AnyChannels<exr::image::FlatSamples>>,
+                      name: &str| {
             l.channel_data
                 .list
                 .iter()
@@ -141,15 +141,33 @@ fn a_crop_equals_its_region_of_the_full_frame_and_threads_do_not_matter() {
                 .values_as_f32()
                 .collect::<Vec<f32>>()
         };
-        let (fv, cv) = (values(f), values(c));
-        for y in 0..25 {
-            for x in 0..30 {
-                assert_eq!(
-                    cv[x + 30 * y].to_bits(),
-                    fv[(x + 10) + 64 * (y + 5)].to_bits(),
-                    "{name} at {x},{y}"
-                );
+        for name in ["R", "A", "Z", "lod.mesh"] {
+            let (fv, cv) = (values(f, name), values(c, name));
+            for y in 0..25 {
+                for x in 0..30 {
+                    assert_eq!(
+                        cv[x + 30 * y].to_bits(),
+                        fv[(x + 10) + 64 * (y + 5)].to_bits(),
+                        "{name} at {x},{y}"
+                    );
+                }
             }
+        }
+        // The representation layers split the canopy between them; the texel method draws no
+        // tree as a model, the hybrid here draws some each way.
+        let sum = |name: &str| values(f, name).iter().map(|&v| f64::from(v)).sum::<f64>();
+        let (mesh, texel, canopy) = (sum("lod.mesh"), sum("lod.texel"), sum("canopy.A"));
+        assert!(
+            (mesh + texel - canopy).abs() < 0.01 * canopy + 0.1,
+            "{mesh} + {texel} against {canopy}"
+        );
+        if method.is_empty() {
+            assert_eq!(mesh, 0.0);
+        } else {
+            assert!(
+                mesh > 0.1 * canopy && texel > 0.1 * canopy,
+                "models {mesh}, textures {texel} of {canopy}"
+            );
         }
     }
 }

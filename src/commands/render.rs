@@ -11,7 +11,7 @@ use texel_forest::limits::{Limits, check_memory};
 use texel_forest::output::{OutputId, Outputs, depfile};
 use texel_forest::render::load::{self, LoadedScene, SceneRequest};
 use texel_forest::render::{
-    self, Aovs, Camera, Film, Lighting, March, Method, RenderSettings, Shading, film,
+    self, Aovs, Camera, Film, Lighting, Lod, March, Method, RenderSettings, Shading, film,
     view::{self, CameraChoice},
 };
 
@@ -32,7 +32,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         forest: &args.instances,
         terrain: args.terrain.as_deref(),
         day: args.day,
-        meshes: args.method == MethodArg::Mesh,
+        meshes: args.method != MethodArg::Texel,
         limits: *limits,
     })?;
     let mut dependencies = scene.dependencies.clone();
@@ -76,6 +76,10 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
                 format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
             ),
             MethodArg::Mesh => ("meshes", format!("{shadow_rays:.1} shadow rays per pixel")),
+            MethodArg::Hybrid => (
+                "meshes and textures",
+                format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
+            ),
         };
         let memory = texel_forest::limits::peak_memory()
             .map_or(String::new(), |b| format!(", peak memory {} MiB", b >> 20));
@@ -165,6 +169,7 @@ fn settings(args: &RenderArgs) -> RenderSettings {
         method: match args.method {
             MethodArg::Texel => Method::Texel,
             MethodArg::Mesh => Method::Mesh,
+            MethodArg::Hybrid => Method::Hybrid,
         },
         spp: args.spp,
         march: March {
@@ -174,6 +179,10 @@ fn settings(args: &RenderArgs) -> RenderSettings {
             shadow_lod: args.shadow_lod,
             shadow_share: args.shadow_share,
             view_share: args.view_share,
+        },
+        lod: Lod {
+            switch: args.lod_switch,
+            band: args.lod_band,
         },
         crop: args.crop,
         seed: args.seed,
@@ -203,6 +212,7 @@ fn write(
         albedo: args.aov.contains(&AovArg::Albedo),
         canopy: args.aov.contains(&AovArg::Canopy),
         species: args.aov.contains(&AovArg::Species),
+        lod: args.aov.contains(&AovArg::Lod),
         samples: args.aov.contains(&AovArg::Samples),
     };
     let exr = film

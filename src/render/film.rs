@@ -13,6 +13,8 @@ pub struct Aovs {
     pub albedo: bool,
     pub canopy: bool,
     pub species: bool,
+    /// Which representation drew the canopy (the hybrid method's transitions).
+    pub lod: bool,
     /// Where the time goes: volume samples and shadow rays per pixel.
     pub samples: bool,
 }
@@ -47,6 +49,8 @@ pub struct Film {
     pub normal: Vec<Vec3>,
     pub albedo: Vec<Vec3>,
     pub canopy: Vec<f32>,
+    /// The part of `canopy` drawn from polygon models.
+    pub mesh_canopy: Vec<f32>,
     pub species: Vec<f32>,
     /// Volume samples along the pixel's view rays (all of its samples), and shadow rays cast.
     pub samples: Vec<f32>,
@@ -67,6 +71,7 @@ impl Film {
             normal: vec![Vec3::ZERO; n],
             albedo: vec![Vec3::ZERO; n],
             canopy: vec![0.0; n],
+            mesh_canopy: vec![0.0; n],
             species: vec![0.0; n],
             samples: vec![0.0; n],
             shadow_rays: vec![0.0; n],
@@ -173,6 +178,17 @@ impl Film {
         }
         if aovs.canopy {
             channels.push(AnyChannel::new("canopy.A", samples(self.canopy.clone())));
+        }
+        if aovs.lod {
+            // Coverage by representation: the two add up to canopy.A.
+            channels.push(AnyChannel::new(
+                "lod.mesh",
+                samples(self.mesh_canopy.clone()),
+            ));
+            channels.push(AnyChannel::new(
+                "lod.texel",
+                samples(column(&|i| (self.canopy[i] - self.mesh_canopy[i]).max(0.0))),
+            ));
         }
         if aovs.species {
             channels.push(AnyChannel::new(

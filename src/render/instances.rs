@@ -98,20 +98,30 @@ pub struct Instances {
     list: Vec<TreeTransform>,
     /// Per model: its box in model space.
     model_boxes: Vec<Aabb>,
+    /// Per model: its box's centre and its finest cell (m), which pick how the hybrid method
+    /// draws an instance.
+    model_lod: Vec<(Vec3, f32)>,
     bvh: Bvh,
 }
 
 impl Instances {
-    /// `list`'s instances of models whose model-space boxes are `model_boxes`.
-    pub fn new(list: Vec<TreeTransform>, model_boxes: Vec<Aabb>) -> Instances {
+    /// `list`'s instances of models whose model-space boxes are `model_boxes` and whose
+    /// finest texture cells are `model_cells` (m).
+    pub fn new(list: Vec<TreeTransform>, model_boxes: Vec<Aabb>, model_cells: &[f32]) -> Instances {
         let boxes: Vec<Aabb> = list
             .iter()
             .map(|i| Self::world_box(i, model_boxes[i.model as usize]))
+            .collect();
+        let model_lod = model_boxes
+            .iter()
+            .zip(model_cells)
+            .map(|(b, &cell)| (b.centre(), cell))
             .collect();
         Instances {
             bvh: Bvh::build(&boxes),
             list,
             model_boxes,
+            model_lod,
         }
     }
 
@@ -136,6 +146,18 @@ impl Instances {
 
     pub fn is_empty(&self) -> bool {
         self.list.is_empty()
+    }
+
+    /// The centre of instance `i`'s model box, placed in the world, and the size of its
+    /// model's finest texture cell there (m).
+    #[inline]
+    pub fn centre_and_cell(&self, i: u32) -> (Vec3, f32) {
+        let inst = self.get(i);
+        let (centre, cell) = self.model_lod[inst.model as usize];
+        (
+            inst.position + inst.dir_to_world(centre) * inst.scale,
+            cell * inst.scale,
+        )
     }
 
     /// The part of `ray` inside instance `i`'s model box, before `t_max`.
@@ -355,7 +377,7 @@ mod tests {
                 hi: Vec3::new(4.0, 6.0, 1.0),
             },
         ];
-        let instances = Instances::new(list, boxes);
+        let instances = Instances::new(list, boxes, &[1.0, 1.0]);
         let w = Vec3::new(0.4, 0.7, -0.3).normalize();
         let beam = Beam::new(&instances, w);
         let mut met = 0;

@@ -27,20 +27,60 @@
 //!
 //! The instances along the ray come from `render::walk` (the front-to-back walk, and how
 //! finely it marches); the sun's light at a sample from `render::sunlight`.
+//!
+//! The hybrid method ([`hybrid`]) draws each tree as `render::lod` chooses for the sample:
+//! the nearest surface of the trees drawn as meshes ends the ray as the terrain does, the
+//! textures in front of it are marched and composited over it, and those behind it are never
+//! reached.
 
 use glam::Vec3;
 
+use super::lod::{Draw, Lod};
+use super::mesh::{self, TreeHit};
 use super::scene::Scene;
 use super::shading::{Radiance, shade, shade_ground, sun_radiance};
-use super::sunlight::{MAX_OWN, OwnTree, roulette, sun_light};
+use super::sunlight::{Caster, MAX_OWN, OwnTree, roulette, sun_light};
 use super::walk::{Active, March, Walk, segment_end};
-use crate::geom::Ray;
+use crate::geom::{Ray, TriangleHit};
 use crate::rng::{self, purpose};
 
-/// Radiance along the ray from the eye (the renderer frame's origin) in direction `dir`;
-/// `spread` is the angle the sample's share of its pixel subtends (the pixel's over the square
-/// root of the samples per pixel), `key` seeds the ray's random draws.
+/// Radiance along the ray from the eye (the renderer frame's origin) in direction `dir`, every
+/// tree drawn from its texture; `spread` is the angle the sample's share of its pixel subtends
+/// (the pixel's over the square root of the samples per pixel), `key` seeds the ray's random
+/// draws.
 pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) -> Radiance {
+    trace(scene, dir, spread, key, march, Draw::Texel)
+}
+
+/// [`radiance`] with each tree drawn as `lod` chooses for this sample: from its texture or
+/// from its polygon model (which needs [`Scene::with_meshes`]).
+pub fn hybrid(
+    scene: &Scene,
+    dir: Vec3,
+    spread: f32,
+    key: u64,
+    march: &March,
+    lod: Lod,
+) -> Radiance {
+    trace(
+        scene,
+        dir,
+        spread,
+        key,
+        march,
+        Draw::Hybrid { lod, spread, key },
+    )
+}
+
+/// What ends a view ray behind the textures it crosses.
+enum Behind<'a> {
+    Sky,
+    Ground(&'a super::Ground, (u32, TriangleHit)),
+    /// A tree drawn from its polygon model.
+    Tree(TreeHit),
+}
+
+fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: Draw) -> Radiance {
     let ray = Ray {
         origin: Vec3::ZERO,
         dir,
@@ -50,7 +90,9 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         .as_ref()
         .and_then(|g| g.nearest(&ray, f32::INFINITY).map(|h| (g, h)));
     let t_max = ground_hit.map_or(f32::INFINITY, |(_, (_, h))| h.t);
-    let mut walk = Walk::new(scene, ray, t_max, spread, 0.0, march.lod_bias);
+    // The walk meets the trees drawn as meshes in the same front-to-back order, and stops at
+    // the nearest surface of theirs it finds.
+    let mut walk = Walk::new(scene, ray, t_max, spread, march.lod_bias, draw, key);
     let mut out = Radiance {
         distance: f32::INFINITY,
         ..Radiance::default()
@@ -59,7 +101,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     let mut t = 0.0f32;
     let mut segment = 0u64;
     SURFACES.with_borrow_mut(|s| s.clear());
-    while let Some(start) = walk.advance(t, t_max) {
+    while let Some(start) = walk.advance(t) {
         t = start;
         if let Some(next) = walk.empty_until(t) {
             // Whole segments in empty space are jumped over with their draws, so the samples
@@ -79,7 +121,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         let (end, ts) = segment_end(
             &walk,
             t,
-            t_max,
+            walk.t_max,
             march.step,
             rng::hash3(key, segment, purpose::SEGMENT_JITTER),
         );
@@ -109,6 +151,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
             layer: cell_here.max(length),
             share,
             key: (key, segment),
+            draw: &draw,
         };
         let source = scatter(scene, &walk.active, &sample, march, &mut out.shadow_rays);
         out.rgb += source * share;
@@ -136,8 +179,20 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
         transmittance = left;
     }
     out.canopy = 1.0 - transmittance;
-    let lighting = GroundLight { spread, key, march };
-    finish(scene, ray, ground_hit, transmittance, &lighting, &mut out);
+    // A ray stopped early (by the cut-off or the roulette) may not have reached a model that
+    // lies further on: what is behind it then gets none of its light, whatever it is.
+    let behind = match (walk.mesh_hit.take(), ground_hit) {
+        (Some(h), _) => Behind::Tree(h),
+        (None, Some((g, h))) => Behind::Ground(g, h),
+        (None, None) => Behind::Sky,
+    };
+    let lighting = SurfaceLight {
+        spread,
+        key,
+        march,
+        draw: &draw,
+    };
+    finish(scene, ray, behind, transmittance, &lighting, &mut out);
     out
 }
 
@@ -168,6 +223,7 @@ struct Sample<'a> {
     share: f32,
     /// The ray's key and the segment's index, which key the sample's draws.
     key: (u64, u64),
+    draw: &'a Draw,
 }
 
 /// The light a sample sends towards the eye. One part of the mixture scatters it, chosen by
@@ -222,8 +278,13 @@ fn scatter(
                         n += 1;
                     }
                 }
-                let key = rng::hash3(key, segment, purpose::SEGMENT_LIGHT);
-                sun_light(scene, p, s.footprint, key, march, &own[..n])
+                let caster = Caster {
+                    footprint: s.footprint,
+                    key: rng::hash3(key, segment, purpose::SEGMENT_LIGHT),
+                    own: &own[..n],
+                    draw: s.draw,
+                };
+                sun_light(scene, p, march, &caster)
             },
         )
     };
@@ -347,20 +408,21 @@ pub(super) fn turn_moment(m: [f32; 6], c: f32, s: f32) -> [f32; 6] {
 }
 
 /// The end of a view ray: its surface (where the trees' opacity reaches half of what the ray
-/// ends with, all of it when the terrain stops the ray, else the terrain below), and what lies
-/// behind the trees: the terrain, the sky's radiance, or the transparent sky.
+/// ends with, all of it when the terrain or a tree's model stops the ray, else that surface),
+/// and what lies behind the textures: the terrain, a tree's model, the sky's radiance, or the
+/// transparent sky.
 fn finish(
     scene: &Scene,
     ray: Ray,
-    ground_hit: Option<(&super::Ground, (u32, crate::geom::TriangleHit))>,
+    behind: Behind,
     transmittance: f32,
-    l: &GroundLight,
+    l: &SurfaceLight,
     out: &mut Radiance,
 ) {
-    let half = if ground_hit.is_some() {
-        0.5
-    } else {
+    let half = if matches!(behind, Behind::Sky) {
         0.5 * out.canopy
+    } else {
+        0.5
     };
     SURFACES.with_borrow(|s| {
         if let Some(surface) = s.iter().find(|s| s.opacity >= half && s.opacity > 0.0) {
@@ -370,12 +432,20 @@ fn finish(
             out.species = surface.species;
         }
     });
-    match ground_hit {
-        Some((g, hit)) if transmittance >= l.march.cutoff => {
+    if matches!(behind, Behind::Tree(_)) {
+        // A model is opaque where it is hit: the canopy is whole, that much of it the model's.
+        out.canopy = 1.0;
+        out.mesh_canopy = transmittance;
+    }
+    match behind {
+        Behind::Ground(g, hit) if transmittance >= l.march.cutoff => {
             light_ground(scene, g, ray, hit, transmittance, l, out);
         }
-        Some(_) => out.transmittance = 0.0,
-        None => {
+        Behind::Tree(h) if transmittance >= l.march.cutoff => {
+            light_tree(scene, ray, &h, transmittance, l, out);
+        }
+        Behind::Ground(..) | Behind::Tree(_) => out.transmittance = 0.0,
+        Behind::Sky => {
             if let Some(sky) = scene.sky {
                 out.rgb += sky * transmittance;
                 out.transmittance = 0.0;
@@ -386,11 +456,12 @@ fn finish(
     }
 }
 
-/// What the terrain's shadow ray needs of its view ray.
-struct GroundLight<'a> {
+/// What the shadow ray of the surface ending a view ray needs of the view ray.
+struct SurfaceLight<'a> {
     spread: f32,
     key: u64,
     march: &'a March,
+    draw: &'a Draw,
 }
 
 /// The terrain where the view `ray` hits it, seen through `transmittance` of trees: lit by
@@ -402,7 +473,7 @@ fn light_ground(
     ray: Ray,
     (tri, hit): (u32, crate::geom::TriangleHit),
     transmittance: f32,
-    l: &GroundLight,
+    l: &SurfaceLight,
     out: &mut Radiance,
 ) {
     let normal = g.normal(tri, ray.dir);
@@ -420,14 +491,13 @@ fn light_ground(
             rng::hash3(l.key, 0, purpose::GROUND_ROULETTE),
             &mut out.shadow_rays,
             || {
-                sun_light(
-                    scene,
-                    lift,
-                    hit.t * l.spread,
-                    rng::hash3(l.key, 0, purpose::GROUND_LIGHT),
-                    l.march,
-                    &[],
-                )
+                let caster = Caster {
+                    footprint: hit.t * l.spread,
+                    key: rng::hash3(l.key, 0, purpose::GROUND_LIGHT),
+                    own: &[],
+                    draw: l.draw,
+                };
+                sun_light(scene, lift, l.march, &caster)
             },
         )
     };
@@ -437,6 +507,52 @@ fn light_ground(
         out.distance = hit.t;
         out.normal = normal;
         out.albedo = albedo;
+    }
+    out.transmittance = 0.0;
+}
+
+/// A tree drawn from its polygon model where the view `ray` hits it, seen through
+/// `transmittance` of textures: lit as the mesh method lights it (its shadow ray through every
+/// tree as the sample draws it, by roulette as the terrain's), and the surface where no
+/// texture was one.
+fn light_tree(
+    scene: &Scene,
+    ray: Ray,
+    h: &TreeHit,
+    transmittance: f32,
+    l: &SurfaceLight,
+    out: &mut Radiance,
+) {
+    let s = mesh::tree_surface(scene, h, ray.dir);
+    let lit = if s.normal.dot(scene.sun.direction) <= 0.0 {
+        0.0
+    } else if !scene.shadows {
+        sun_radiance(scene)
+    } else {
+        roulette(
+            transmittance,
+            l.march,
+            rng::hash3(l.key, 0, purpose::GROUND_ROULETTE),
+            &mut out.shadow_rays,
+            || {
+                // The ray's own key: its mesh stream is the one the mesh method's shadow ray
+                // draws alpha-blended triangles from.
+                let caster = Caster {
+                    footprint: h.hit.t * l.spread,
+                    key: l.key,
+                    own: &[],
+                    draw: l.draw,
+                };
+                sun_light(scene, s.leave, l.march, &caster)
+            },
+        )
+    };
+    out.rgb += shade(scene, s.albedo, Some(s.normal), lit, -ray.dir) * transmittance;
+    if out.distance.is_infinite() {
+        out.distance = h.hit.t;
+        out.normal = s.normal;
+        out.albedo = s.albedo;
+        out.species = s.species;
     }
     out.transmittance = 0.0;
 }

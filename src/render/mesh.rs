@@ -18,10 +18,10 @@ use crate::mesh_tracer::covers;
 use crate::rng;
 
 /// A hit on a tree: which instance, which triangle of its model, and where.
-struct TreeHit {
-    instance: u32,
-    triangle: u32,
-    hit: TriangleHit,
+pub(super) struct TreeHit {
+    pub(super) instance: u32,
+    pub(super) triangle: u32,
+    pub(super) hit: TriangleHit,
 }
 
 /// Whether triangle `t` of instance `i`'s model is there at `w`: its alpha, and for foliage
@@ -48,15 +48,27 @@ fn tree_of<'a>(scene: &'a Scene, inst: &TreeTransform) -> &'a TreeMesh {
 
 /// The nearest tree surface along `ray` before `t_max`.
 fn nearest_tree(scene: &Scene, ray: &Ray, t_max: f32, key: u64) -> Option<TreeHit> {
-    let (instance, (triangle, hit)) = scene.instances.nearest(ray, t_max, |i, local, t_max| {
-        let tree = tree_of(scene, scene.instances.get(i));
-        let (triangle, hit) = tree.triangles.nearest(local, 0.0, t_max, |t, h| {
-            present(scene, i, tree, t, h.w, key)
-        })?;
-        Some((hit.t, (triangle, hit)))
+    let (_, h) = scene.instances.nearest(ray, t_max, |i, local, t_max| {
+        hit_instance(scene, i, local, t_max, key).map(|h| (h.hit.t, h))
+    })?;
+    Some(h)
+}
+
+/// The nearest surface of instance `i`'s model along `local` (the ray in its model space)
+/// before `t_max`; `key` draws its alpha-blended triangles.
+pub(super) fn hit_instance(
+    scene: &Scene,
+    i: u32,
+    local: &Ray,
+    t_max: f32,
+    key: u64,
+) -> Option<TreeHit> {
+    let tree = tree_of(scene, scene.instances.get(i));
+    let (triangle, hit) = tree.triangles.nearest(local, 0.0, t_max, |t, h| {
+        present(scene, i, tree, t, h.w, key)
     })?;
     Some(TreeHit {
-        instance,
+        instance: i,
         triangle,
         hit,
     })
@@ -76,11 +88,51 @@ fn sun_hidden(scene: &Scene, origin: Vec3, key: u64) -> bool {
     scene
         .sun_beam
         .any(&scene.instances, &ray, f32::INFINITY, |i, local, t_max| {
-            let tree = tree_of(scene, scene.instances.get(i));
-            tree.triangles.occluded(local, 0.0, t_max, |t, h| {
-                present(scene, i, tree, t, h.w, key)
-            })
+            blocks(scene, i, local, t_max, key)
         })
+}
+
+/// Whether instance `i`'s polygon model stops the ray `local` (in its model space) before
+/// `t_max`; `key` draws its alpha-blended triangles.
+pub(super) fn blocks(scene: &Scene, i: u32, local: &Ray, t_max: f32, key: u64) -> bool {
+    let tree = tree_of(scene, scene.instances.get(i));
+    tree.triangles.occluded(local, 0.0, t_max, |t, h| {
+        present(scene, i, tree, t, h.w, key)
+    })
+}
+
+/// What a view ray in direction `dir` sees where it hits a tree's model: the normal facing
+/// it, the albedo, the species index + 1, and where a ray towards the sun may leave.
+pub(super) struct TreeSurface {
+    pub(super) normal: Vec3,
+    pub(super) albedo: Vec3,
+    pub(super) species: f32,
+    pub(super) leave: Vec3,
+}
+
+pub(super) fn tree_surface(scene: &Scene, h: &TreeHit, dir: Vec3) -> TreeSurface {
+    let inst = scene.instances.get(h.instance);
+    let tree = tree_of(scene, inst);
+    let look = &scene.looks[inst.look as usize];
+    let normal = facing(
+        inst.dir_to_world(tree.normal(h.triangle))
+            .normalize_or(Vec3::Y),
+        dir,
+    );
+    let albedo = if tree.foliage[h.triangle as usize] {
+        look.foliage_albedo
+    } else {
+        let tri = &tree.mesh.triangles[h.triangle as usize];
+        tree.mesh.base_color(tri, h.hit.w).truncate()
+    };
+    let (p, error) = barycentric_point(tree.corners(h.triangle), h.hit.w);
+    let (p, error) = inst.point_to_world(p, error);
+    TreeSurface {
+        normal,
+        albedo,
+        species: inst.look as f32 + 1.0,
+        leave: offset_origin(p, error, normal, scene.sun.direction),
+    }
 }
 
 /// `n` turned to face the eye looking along `dir`: surfaces are two-sided.
@@ -108,25 +160,10 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
     let sun = scene.sun.direction;
     let (normal, albedo, t, species, leave) = if let Some(h) = nearest_tree(scene, &ray, t_max, key)
     {
-        let inst = scene.instances.get(h.instance);
-        let tree = tree_of(scene, inst);
-        let look = &scene.looks[inst.look as usize];
-        let n = facing(
-            inst.dir_to_world(tree.normal(h.triangle))
-                .normalize_or(Vec3::Y),
-            dir,
-        );
-        let albedo = if tree.foliage[h.triangle as usize] {
-            look.foliage_albedo
-        } else {
-            let tri = &tree.mesh.triangles[h.triangle as usize];
-            tree.mesh.base_color(tri, h.hit.w).truncate()
-        };
-        let (p, error) = barycentric_point(tree.corners(h.triangle), h.hit.w);
-        let (p, error) = inst.point_to_world(p, error);
+        let s = tree_surface(scene, &h, dir);
         out.canopy = 1.0;
-        let leave = offset_origin(p, error, n, sun);
-        (n, albedo, h.hit.t, inst.look as f32 + 1.0, leave)
+        out.mesh_canopy = 1.0;
+        (s.normal, s.albedo, h.hit.t, s.species, s.leave)
     } else if let (Some(g), Some((tri, hit))) = (&scene.ground, ground_hit) {
         let triangle = &g.mesh.triangles[tri as usize];
         let albedo = g.mesh.base_color(triangle, hit.w).truncate();

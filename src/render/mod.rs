@@ -12,6 +12,7 @@ pub mod instances;
 pub mod integrate;
 pub mod leaves;
 pub mod load;
+pub mod lod;
 pub mod mesh;
 pub mod scene;
 pub mod shading;
@@ -23,10 +24,13 @@ use rayon::prelude::*;
 
 pub use camera::Camera;
 pub use film::{Aovs, Film};
+pub use lod::Lod;
 pub use scene::{Ground, Lighting, Look, Placed, Scene, Shading, Sun};
 pub use shading::Radiance;
 pub use walk::March;
 
+#[cfg(test)]
+mod hybrid_tests;
 #[cfg(test)]
 mod mesh_tests;
 #[cfg(test)]
@@ -45,6 +49,9 @@ pub enum Method {
     /// Ray tracing the polygon models the textures were baked from (the conventional method;
     /// at many samples per pixel, the ground truth). Needs [`Scene::with_meshes`].
     Mesh,
+    /// Each tree from whichever of the two its footprint needs (`lod`). Needs
+    /// [`Scene::with_meshes`].
+    Hybrid,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +60,8 @@ pub struct RenderSettings {
     /// Samples per pixel, stratified over the pixel.
     pub spp: u32,
     pub march: March,
+    /// Where the hybrid method switches from meshes to textures.
+    pub lod: Lod,
     /// x0, y0, x1, y1 (exclusive) of the part of the frame to render.
     pub crop: Option<[u32; 4]>,
     pub seed: u64,
@@ -64,6 +73,7 @@ impl Default for RenderSettings {
             method: Method::Texel,
             spp: 1,
             march: March::default(),
+            lod: Lod::default(),
             crop: None,
             seed: 0,
         }
@@ -108,6 +118,7 @@ pub fn render(
         film.normal[i] = p.radiance.normal;
         film.albedo[i] = p.radiance.albedo;
         film.canopy[i] = p.canopy;
+        film.mesh_canopy[i] = p.mesh_canopy;
         film.species[i] = p.radiance.species;
         film.samples[i] = p.samples;
         film.shadow_rays[i] = p.shadow_rays;
@@ -122,6 +133,8 @@ struct Pixel {
     radiance: Radiance,
     /// The trees' opacity, the mean over the samples: a matte of the canopy.
     canopy: f32,
+    /// The part of `canopy` drawn from polygon models, the mean over the samples.
+    mesh_canopy: f32,
     /// Work for the whole pixel, all its samples.
     samples: f32,
     shadow_rays: f32,
@@ -144,7 +157,7 @@ fn pixel(
     );
     let (mut rgba, mut first, mut z) = ([0.0f32; 4], None, f32::INFINITY);
     let (mut samples, mut shadow_rays) = (0u64, 0u64);
-    let mut canopy = 0.0f32;
+    let (mut canopy, mut mesh_canopy) = (0.0f32, 0.0f32);
     for s in 0..settings.spp {
         let key = rng::hash3(pixel_key, s as u64, 0);
         let (sx, sy) = ((s % strata) as f64, ((s / strata) % strata) as f64);
@@ -155,12 +168,16 @@ fn pixel(
         let r = match settings.method {
             Method::Texel => integrate::radiance(scene, dir, spread, ray_key, &settings.march),
             Method::Mesh => mesh::radiance(scene, dir, ray_key),
+            Method::Hybrid => {
+                integrate::hybrid(scene, dir, spread, ray_key, &settings.march, settings.lod)
+            }
         };
         for c in 0..3 {
             rgba[c] += r.rgb[c];
         }
         rgba[3] += 1.0 - r.transmittance;
         canopy += r.canopy;
+        mesh_canopy += r.mesh_canopy;
         samples += u64::from(r.samples);
         shadow_rays += u64::from(r.shadow_rays);
         if r.distance.is_finite() {
@@ -178,6 +195,7 @@ fn pixel(
         z,
         radiance: first.unwrap_or_default(),
         canopy: (canopy / n).clamp(0.0, 1.0),
+        mesh_canopy: (mesh_canopy / n).clamp(0.0, 1.0),
         samples: samples as f32,
         shadow_rays: shadow_rays as f32,
     }

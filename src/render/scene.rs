@@ -222,7 +222,8 @@ impl Scene {
             .iter()
             .map(|t| t.levels.iter().map(Occupancy::of).collect())
             .collect();
-        let instances = Instances::new(instances, model_boxes);
+        let cells: Vec<f32> = texels.iter().map(|t| t.levels[0].cell as f32).collect();
+        let instances = Instances::new(instances, model_boxes, &cells);
         Scene {
             origin,
             texels,

@@ -22,6 +22,8 @@ pub struct Radiance {
     pub albedo: Vec3,
     /// Opacity of the trees alone.
     pub canopy: f32,
+    /// The part of `canopy` drawn from polygon models (the rest is the textures').
+    pub mesh_canopy: f32,
     /// Species index + 1 of the densest tree at the surface, 0 for terrain or sky.
     pub species: f32,
     /// Work done: volume samples along the ray, and shadow rays cast from it.

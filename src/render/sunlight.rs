@@ -4,11 +4,13 @@
 
 use glam::Vec3;
 
+use super::lod::Draw;
+use super::mesh;
 use super::scene::Scene;
 use super::shading::sun_radiance;
 use super::walk::{Active, March};
 use crate::geom::Ray;
-use crate::rng;
+use crate::rng::{self, purpose};
 
 /// A tree a foliage sample lies in, as its shadow ray must cross it: at the sample's level,
 /// its extinction times the level's self-shadowing factor (`Level::self_shadow`).
@@ -19,27 +21,37 @@ pub struct OwnTree {
     pub factor: f32,
 }
 
+/// A shadow ray's origin as its march needs it: the footprint (m) the textures are read at,
+/// the key of its draws, the trees the sample lies in, and how its sample draws the trees.
+#[derive(Clone, Copy)]
+pub struct Caster<'a> {
+    pub footprint: f32,
+    pub key: u64,
+    pub own: &'a [OwnTree],
+    pub draw: &'a Draw,
+}
+
 /// At most this many trees containing one sample get their self-shadowing; further ones (a
 /// pile of coincident boxes) are crossed as any other tree.
 pub(super) const MAX_OWN: usize = 8;
 
-/// Transmittance along `ray` (from its origin, unit direction) up to `t_max` through every texture and the
-/// terrain. `footprint` (m) picks the texture level; the trees in `own` are crossed as
-/// [`OwnTree`] says.
+/// Transmittance along `ray` (from its origin, unit direction) up to `t_max` through every tree
+/// and the terrain, as the [`Caster`] sees them: through the textures of the trees its `draw`
+/// draws as textures, its `footprint` picking the level, those in its `own` crossed as
+/// [`OwnTree`] says; stopped by the polygon models of the others (their alpha-blended
+/// triangles drawn from the key's mesh stream, as the mesh method's shadow rays draw them).
 ///
 /// Optical depth is a sum over the instances the ray crosses, and a sum does not care about
 /// order: so unlike a view ray, a shadow ray needs no front-to-back walk. It visits the
 /// instances in plain traversal order, marches each box on its own, and stops as soon as the
 /// depth so far already puts the transmittance below the cut-off.
-pub fn transmittance(
-    scene: &Scene,
-    ray: Ray,
-    t_max: f32,
-    footprint: f32,
-    key: u64,
-    march: &March,
-    own: &[OwnTree],
-) -> f32 {
+pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster: &Caster) -> f32 {
+    let Caster {
+        footprint,
+        key,
+        own,
+        draw,
+    } = *caster;
     if let Some(g) = &scene.ground
         && g.occluded(&ray, t_max)
     {
@@ -51,6 +63,14 @@ pub fn transmittance(
     scene
         .sun_beam
         .visit(&scene.instances, &ray, t_max, |i, local, _| {
+            if !draw.texel(scene, i) {
+                let mesh_key = rng::mix64(key ^ purpose::MESH_SHADOW);
+                if mesh::blocks(scene, i, local, t_max, mesh_key) {
+                    depth = f32::INFINITY;
+                    return Some(0.0);
+                }
+                return None;
+            }
             let (enter, exit) = scene.instances.local_interval(i, local, t_max)?;
             let (a, factor) = match own.iter().find(|o| o.instance == i) {
                 Some(o) => (Active::at_level(scene, i, local, exit, o.level), o.factor),
@@ -129,18 +149,11 @@ pub(super) fn roulette(
 }
 
 /// I(t): the sun's radiance scale times the transmittance towards it.
-pub(super) fn sun_light(
-    scene: &Scene,
-    p: Vec3,
-    footprint: f32,
-    key: u64,
-    march: &March,
-    own: &[OwnTree],
-) -> f32 {
+pub(super) fn sun_light(scene: &Scene, p: Vec3, march: &March, caster: &Caster) -> f32 {
     let ray = Ray {
         origin: p,
         dir: scene.sun.direction,
     };
-    let t = transmittance(scene, ray, f32::INFINITY, footprint, key, march, own);
+    let t = transmittance(scene, ray, f32::INFINITY, march, caster);
     sun_radiance(scene) * t
 }

@@ -3,8 +3,9 @@
 use glam::{DVec3, Vec3, Vec4};
 
 use super::integrate::radiance;
+use super::lod::Draw;
 use super::scene::{Lighting, Look, Placed, Scene, Shading, Sun};
-use super::sunlight::transmittance;
+use super::sunlight::{Caster, transmittance};
 use super::walk::March;
 use super::{Camera, RenderSettings, render};
 use crate::bake::{mip_chain, sobel};
@@ -118,13 +119,16 @@ fn a_homogeneous_texel_seen_along_an_axis_transmits_exp_minus_sigma_length() {
                 dir: Vec3::NEG_Z,
             },
             f32::INFINITY,
-            0.0,
-            7,
             &March {
                 cutoff: 0.0,
                 ..March::default()
             },
-            &[],
+            &Caster {
+                footprint: 0.0,
+                key: 7,
+                own: &[],
+                draw: &Draw::Texel,
+            },
         );
         let want = (-sigma * 2.0).exp();
         assert!(
@@ -194,10 +198,13 @@ fn directional_extinction_scales_optical_depth_by_the_form() {
                 dir,
             },
             f32::INFINITY,
-            0.0,
-            7,
             &march,
-            &[],
+            &Caster {
+                footprint: 0.0,
+                key: 7,
+                own: &[],
+                draw: &Draw::Texel,
+            },
         );
         let want = (-sigma * 2.0 * k).exp();
         assert!(
@@ -649,13 +656,16 @@ fn ten_thousand_boxes_overlapping_one_point_add_up() {
             dir: Vec3::NEG_Z,
         },
         f32::INFINITY,
-        0.0,
-        1,
         &March {
             cutoff: 0.0,
             ..March::default()
         },
-        &[],
+        &Caster {
+            footprint: 0.0,
+            key: 1,
+            own: &[],
+            draw: &Draw::Texel,
+        },
     );
     let want = (-sigma * 10_000.0 * 2.0).exp();
     assert!((t - want).abs() < 1e-3, "{t} vs {want}");
@@ -689,13 +699,16 @@ fn adjacent_boxes_leave_no_crack() {
                 dir: Vec3::NEG_Z,
             },
             f32::INFINITY,
-            0.0,
-            1,
             &March {
                 cutoff: 0.0,
                 ..March::default()
             },
-            &[],
+            &Caster {
+                footprint: 0.0,
+                key: 1,
+                own: &[],
+                draw: &Draw::Texel,
+            },
         );
         let want = (-0.5f32 * 4.0).exp();
         assert!((t - want).abs() < 1e-4, "x {x}: {t} vs {want}");

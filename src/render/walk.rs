@@ -12,6 +12,8 @@
 use glam::Vec3;
 
 use super::instances::{Intervals, TreeTransform};
+use super::lod::Draw;
+use super::mesh::{self, TreeHit};
 use super::scene::Scene;
 use crate::geom::Ray;
 use crate::rng;
@@ -125,16 +127,23 @@ impl Active {
 }
 
 /// The front-to-back walk of the instances along one ray: which are active (the ray is inside
-/// their box) at each point, and the mip level each is read at.
+/// their box) at each point, and the mip level each is read at. Only the trees its sample
+/// draws from their textures are ever active; those it draws as meshes are intersected as the
+/// walk enters their boxes, and the nearest surface found ends the walk.
 pub(super) struct Walk<'a> {
     pub(super) scene: &'a Scene,
     pub(super) ray: Ray,
     pub(super) intervals: Intervals<'a>,
     pub(super) active: Vec<Active>,
-    /// Cone: footprint (m) at distance t is t x spread + base.
+    /// Cone: footprint (m) at distance t is t x spread.
     pub(super) spread: f32,
-    pub(super) base: f32,
     pub(super) lod_bias: f32,
+    pub(super) draw: Draw,
+    /// The ray's key: the draws of the models' alpha-blended triangles.
+    key: u64,
+    /// Where the walk ends: the terrain, or the nearest model surface met so far.
+    pub(super) t_max: f32,
+    pub(super) mesh_hit: Option<TreeHit>,
 }
 
 impl<'a> Walk<'a> {
@@ -143,8 +152,9 @@ impl<'a> Walk<'a> {
         ray: Ray,
         t_max: f32,
         spread: f32,
-        base: f32,
         lod_bias: f32,
+        draw: Draw,
+        key: u64,
     ) -> Walk<'a> {
         Walk {
             scene,
@@ -152,8 +162,11 @@ impl<'a> Walk<'a> {
             intervals: scene.instances.intervals(ray, t_max),
             active: Vec::new(),
             spread,
-            base,
             lod_bias,
+            draw,
+            key,
+            t_max,
+            mesh_hit: None,
         }
     }
 
@@ -165,7 +178,15 @@ impl<'a> Walk<'a> {
     /// Activates every instance the ray has entered by `t`.
     pub(super) fn admit(&mut self, t: f32) {
         while let Some((i, enter, exit)) = self.intervals.next_entered(t) {
-            let footprint = enter * self.spread + self.base;
+            if !self.draw.texel(self.scene, i) {
+                let local = self.scene.instances.get(i).local_ray(&self.ray);
+                if let Some(h) = mesh::hit_instance(self.scene, i, &local, self.t_max, self.key) {
+                    self.t_max = h.hit.t;
+                    self.mesh_hit = Some(h);
+                }
+                continue;
+            }
+            let footprint = enter * self.spread;
             let local = self.scene.instances.get(i).local_ray(&self.ray);
             let a = Active::new(self.scene, i, &local, exit, footprint, self.lod_bias);
             self.active.push(a);
@@ -188,14 +209,17 @@ impl<'a> Walk<'a> {
 
     /// Brings the walk to `t` and returns where the next segment starts: `t` itself while
     /// the ray is inside some instance, else the next instance's entry; `None` past `t_max`.
-    pub(super) fn advance(&mut self, mut t: f32, t_max: f32) -> Option<f32> {
+    pub(super) fn advance(&mut self, mut t: f32) -> Option<f32> {
         loop {
             self.admit(t);
             self.retire(t);
+            if t >= self.t_max {
+                return None;
+            }
             if !self.active.is_empty() {
                 return Some(t);
             }
-            t = self.next_entry().filter(|&e| e < t_max)?;
+            t = self.next_entry().filter(|&e| e < self.t_max)?;
         }
     }
 }

@@ -1,0 +1,300 @@
+//! The hybrid method: each regime gives its pure method's image, the transition band gives the
+//! blend in expectation, textures composite over meshes in depth order, and a tree drawn from
+//! its model is never darkened by its own texture.
+
+use glam::{DVec3, Vec3, Vec4};
+
+use super::integrate;
+use super::lod::{Draw, Lod};
+use super::scene::{Lighting, Look, Placed, Scene, Shading, Sun, TreeMesh};
+use super::tests::{HEAD_ON, PLAIN, ground, look, placed, uniform_texel};
+use super::walk::March;
+use super::{Camera, Film, Method, RenderSettings, render};
+use crate::bake::{self, BakeSettings};
+use crate::import::{AlphaMode, Material, Mesh};
+
+/// An opaque box 2 m across standing on the origin, its mesh and its texture baked from it.
+fn boxed_tree() -> (crate::volume::Texel, TreeMesh) {
+    let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
+    let c =
+        |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
+    let faces = [
+        [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)],
+        [c(1, 0, 0), c(0, 0, 0), c(0, 1, 0), c(1, 1, 0)],
+        [c(1, 0, 1), c(1, 0, 0), c(1, 1, 0), c(1, 1, 1)],
+        [c(0, 0, 0), c(0, 0, 1), c(0, 1, 1), c(0, 1, 0)],
+        [c(0, 1, 1), c(1, 1, 1), c(1, 1, 0), c(0, 1, 0)],
+        [c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)],
+    ];
+    let model = quads(&faces, 0.5);
+    let texel = bake::bake(
+        &model,
+        &BakeSettings {
+            resolution: 16,
+            fine: 64,
+            ..BakeSettings::default()
+        },
+    )
+    .unwrap();
+    let n = model.triangles.len();
+    (texel, TreeMesh::new(model, vec![false; n]))
+}
+
+fn quads(quads: &[[Vec3; 4]], albedo: f32) -> Mesh {
+    let positions = quads.iter().flatten().copied().collect();
+    let triangles: Vec<[u32; 3]> = (0..quads.len() as u32)
+        .flat_map(|q| [[0, 1, 2], [0, 2, 3]].map(|t| t.map(|v| 4 * q + v)))
+        .collect();
+    Mesh::plain(
+        positions,
+        &triangles,
+        Material {
+            name: "bark".into(),
+            base_color: Vec4::new(albedo, albedo, albedo, 1.0),
+            alpha_mode: AlphaMode::Opaque,
+            ..Material::default()
+        },
+    )
+}
+
+fn lone_tree_scene(eye: DVec3, sun: Sun) -> Scene {
+    let (texel, mesh) = boxed_tree();
+    Scene::new(
+        eye,
+        vec![texel],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        Some(ground(0.0, 40.0, 0.3)),
+        Lighting {
+            sun,
+            shading: Shading::default(),
+            sky: None,
+        },
+    )
+    .with_meshes(vec![mesh])
+}
+
+fn image(scene: &Scene, camera: &Camera, method: Method, lod: Lod, spp: u32) -> Film {
+    render(
+        scene,
+        camera,
+        &RenderSettings {
+            method,
+            spp,
+            lod,
+            ..RenderSettings::default()
+        },
+        &|_| {},
+    )
+}
+
+fn bits(f: &Film) -> Vec<[u32; 4]> {
+    f.rgba.iter().map(|p| p.map(f32::to_bits)).collect()
+}
+
+/// A tree whose texture cells are well below a sample's footprint is drawn as its texture,
+/// and one whose cells span several pixels as its mesh, each exactly as the pure method draws
+/// it: the same samples, the same bits. The near one is lit head on (the sun behind the eye),
+/// where its own texture, if the mesh's shadow rays crossed it, would darken its faces.
+#[test]
+fn a_tree_well_inside_each_regime_renders_as_the_pure_method() {
+    let target = DVec3::new(0.0, 1.0, 0.0);
+    let lod = Lod::default();
+    let distance = 20.0;
+    // Frames 16 m and 3 m across, 32 pixels: the box's 1/8 m cells against footprints of 1/4
+    // and 3/64 m per sample (four samples a pixel).
+    for (across, method, covered_at_least) in [(16.0, Method::Texel, 8), (3.0, Method::Mesh, 500)] {
+        let eye = DVec3::new(0.4, 1.3, 1.0).normalize() * distance + target;
+        let toward_eye = (eye - target).normalize().as_vec3();
+        let sun = Sun {
+            direction: toward_eye,
+            ..HEAD_ON
+        };
+        let scene = lone_tree_scene(eye, sun);
+        let width = 32;
+        let fov = (across / 2.0 / distance).atan().to_degrees() * 2.0;
+        let camera = Camera::look_at(eye, target, fov, width, width).unwrap();
+        let spread = camera.pixel_angle() as f32 / 2.0;
+        let p = Draw::texel_probability(&scene, &lod, spread, 0);
+        assert_eq!(
+            p,
+            f32::from(u8::from(method == Method::Texel)),
+            "{across} m"
+        );
+        let hybrid = image(&scene, &camera, Method::Hybrid, lod, 4);
+        let pure = image(&scene, &camera, method, lod, 4);
+        assert_eq!(bits(&hybrid), bits(&pure), "{method:?}");
+        assert_eq!(hybrid.canopy, pure.canopy);
+        let covered = pure.canopy.iter().filter(|&&c| c > 0.5).count();
+        assert!(covered >= covered_at_least, "{method:?}: {covered} pixels");
+        if method == Method::Mesh {
+            // Lit head on, every face the eye sees is lit: none is black.
+            let lit = hybrid
+                .rgba
+                .iter()
+                .zip(&hybrid.canopy)
+                .filter(|(p, c)| **c > 0.99 && p[1] > 0.05)
+                .count();
+            assert!(lit as f64 > 0.95 * covered as f64, "{lit} of {covered}");
+        }
+    }
+}
+
+/// Inside the band each sample draws the tree one way or the other, the texture with the
+/// probability `lod::Draw::texel_probability` gives: the frame is that blend of the two pure
+/// frames, up to the draws' noise.
+#[test]
+fn in_the_band_the_expected_image_is_the_blend_of_the_two() {
+    // A texture and a model that look different: a grey cloud against a white slab.
+    let cloud = uniform_texel([8, 8, 2], 0.5, DVec3::new(-2.0, -2.0, -0.5), 0.7, [0.2; 3]);
+    let slab = quads(
+        &[[
+            Vec3::new(-1.5, -1.5, 0.0),
+            Vec3::new(1.5, -1.5, 0.0),
+            Vec3::new(1.5, 1.5, 0.0),
+            Vec3::new(-1.5, 1.5, 0.0),
+        ]],
+        0.9,
+    );
+    let eye = DVec3::new(0.0, 0.0, 200.0);
+    let scene = Scene::new(
+        eye,
+        vec![cloud],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        None,
+        Lighting {
+            sun: HEAD_ON,
+            shading: PLAIN,
+            sky: None,
+        },
+    )
+    .with_meshes(vec![TreeMesh::new(slab, vec![false; 2])]);
+    let camera = Camera::look_at(eye, DVec3::ZERO, 1.5, 24, 24).unwrap();
+    let spp = 64;
+    let spread = camera.pixel_angle() as f32 / 8.0;
+    // The switch where this tree's texture has probability about 0.3 in a band of two octaves
+    // (its box, the union of its levels', is centred a little off the origin).
+    let cells = 200.0 * spread / 0.5;
+    let lod = Lod {
+        switch: cells * 2f32.powf(0.2 * 2.0),
+        band: 2.0,
+    };
+    let p = Draw::texel_probability(&scene, &lod, spread, 0);
+    assert!((p - 0.3).abs() < 0.02, "{p}");
+    let mean = |f: &Film| f.rgba.iter().map(|q| f64::from(q[0])).sum::<f64>() / 576.0;
+    let texel = mean(&image(&scene, &camera, Method::Texel, lod, spp));
+    let mesh = mean(&image(&scene, &camera, Method::Mesh, lod, spp));
+    let hybrid = image(&scene, &camera, Method::Hybrid, lod, spp);
+    let blend = f64::from(p) * texel + f64::from(1.0 - p) * mesh;
+    assert!(
+        (mesh - texel).abs() > 0.1,
+        "the two must differ: {texel} {mesh}"
+    );
+    // The samples are the pure methods' own (the same keys), so only the choices are noise:
+    // about 12,000 samples where the two differ by about 0.9, a standard deviation of 0.0012
+    // in the mean.
+    assert!(
+        (mean(&hybrid) - blend).abs() < 0.005,
+        "hybrid {} against the blend {blend} (texel {texel}, mesh {mesh})",
+        mean(&hybrid)
+    );
+    // What the meshes drew, as the lod AOV reports it: the blend's share of the coverage.
+    let texel_coverage = hybrid.canopy.iter().sum::<f32>() - hybrid.mesh_canopy.iter().sum::<f32>();
+    assert!(texel_coverage > 0.0 && hybrid.mesh_canopy.iter().any(|&m| m > 0.0));
+}
+
+/// A cloud of black texture (transmittance 1/2 through it) in front of an opaque white slab
+/// drawn as a mesh, both lit head on: the slab is seen through the cloud and lit through it,
+/// 0.6 x 1/2 x 1/2; the slab in front of the cloud hides it and is fully lit, and the ray never
+/// marches the cloud behind it.
+#[test]
+fn textures_composite_over_meshes_in_depth_order() {
+    let sigma = std::f32::consts::LN_2;
+    // The cloud: 4 x 4 m, 1 m deep along z, fine cells; the slab's texture: empty, coarse.
+    let cloud = uniform_texel(
+        [16, 16, 4],
+        0.25,
+        DVec3::new(-2.0, -2.0, -0.5),
+        sigma,
+        [0.0; 3],
+    );
+    let slab_box = uniform_texel([2, 2, 1], 2.0, DVec3::new(-2.0, -2.0, -1.0), 0.0, [0.0; 3]);
+    let slab = quads(
+        &[[
+            Vec3::new(-2.0, -2.0, 0.0),
+            Vec3::new(2.0, -2.0, 0.0),
+            Vec3::new(2.0, 2.0, 0.0),
+            Vec3::new(-2.0, 2.0, 0.0),
+        ]],
+        0.6,
+    );
+    let looks = [0, 1].map(|texel| Look { texel, ..look() });
+    // Off the slab's diagonal, which a ray exactly on it would meet on an edge.
+    let eye = DVec3::new(0.3, 0.2, 10.0);
+    let at = |cloud_z: f64| {
+        let trees = [
+            Placed {
+                look: 0,
+                ..placed(DVec3::new(0.0, 0.0, cloud_z))
+            },
+            Placed {
+                look: 1,
+                ..placed(DVec3::ZERO)
+            },
+        ];
+        Scene::new(
+            eye,
+            vec![cloud.clone(), slab_box.clone()],
+            looks.to_vec(),
+            &trees,
+            None,
+            Lighting {
+                sun: HEAD_ON,
+                shading: PLAIN,
+                sky: None,
+            },
+        )
+        .with_meshes(vec![
+            TreeMesh::new(Mesh::default(), vec![]),
+            TreeMesh::new(slab.clone(), vec![false; 2]),
+        ])
+    };
+    // Hard switch between the two: the cloud's cells are 8 times finer than the slab's.
+    let spread = 0.01;
+    let lod = Lod {
+        switch: 0.12,
+        band: 0.0,
+    };
+    let draw = Draw::Hybrid {
+        lod,
+        spread,
+        key: 1,
+    };
+    let march = March {
+        cutoff: 0.0,
+        ..March::default()
+    };
+    let ray = |scene: &Scene| integrate::hybrid(scene, Vec3::NEG_Z, spread, 9, &march, lod);
+    let front = at(3.0);
+    assert!(draw.texel(&front, 0) && !draw.texel(&front, 1));
+    let r = ray(&front);
+    assert!(
+        (r.rgb - Vec3::splat(0.15)).abs().max_element() < 1e-4,
+        "{r:?}"
+    );
+    assert_eq!((r.canopy, r.transmittance), (1.0, 0.0));
+    assert!((r.mesh_canopy - 0.5).abs() < 1e-4, "{r:?}");
+    // The cloud's samples cast shadow rays of their own (black, they add nothing).
+    assert!(r.samples > 0 && r.shadow_rays >= 1);
+    // Its box reaches 4 m towards the eye (its coarsest level's cell is 4 m deep).
+    let behind = at(-5.0);
+    assert!(draw.texel(&behind, 0) && !draw.texel(&behind, 1));
+    let r = ray(&behind);
+    assert!(
+        (r.rgb - Vec3::splat(0.6)).abs().max_element() < 1e-5,
+        "{r:?}"
+    );
+    assert_eq!((r.samples, r.mesh_canopy), (0, 1.0));
+    assert!((r.distance - 10.0).abs() < 1e-4, "{r:?}");
+}

@@ -1,0 +1,102 @@
+//! Which representation draws each tree for one sample (`--method hybrid`): its texture where a
+//! texture cell is no larger than the sample's footprint at the tree, its polygon model where
+//! the cells would span pixels. The pure methods are the two ends: every tree a texture, or
+//! every tree a mesh.
+//!
+//! The choice is made per instance and per sample, from the footprint at the instance's box
+//! centre (not where a ray meets it), so the view ray and every shadow ray of one sample see
+//! the same tree drawn the same way: a tree drawn as a mesh is never darkened by its own
+//! texture, and a texture sample never by its own tree's triangles. Around the switch a band of
+//! `band` octaves of footprint blends the two stochastically, the texture's probability rising
+//! linearly in log footprint from 0 to 1 across the band, so a moving camera sees trees fade
+//! from one representation to the other instead of popping, and the expected image in the
+//! band is the blend of the two.
+
+use super::scene::Scene;
+use crate::rng::{self, purpose};
+
+/// Where the hybrid method switches representation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lod {
+    /// The footprint, in texture cells of the tree's finest level, at which a tree is drawn
+    /// as texture and mesh with equal probability.
+    pub switch: f32,
+    /// Width of the transition, in octaves (factors of two) of footprint; 0 switches hard.
+    pub band: f32,
+}
+
+impl Default for Lod {
+    fn default() -> Self {
+        Lod {
+            switch: 1.0,
+            band: 1.0,
+        }
+    }
+}
+
+/// How one sample draws the trees.
+#[derive(Clone, Copy, Debug)]
+pub enum Draw {
+    /// Every tree from its texture (`--method texel`).
+    Texel,
+    /// Every tree from its polygon model (`--method mesh`).
+    Mesh,
+    /// Per tree, by footprint (`--method hybrid`).
+    Hybrid {
+        lod: Lod,
+        /// The sample's footprint per metre of distance (radians).
+        spread: f32,
+        /// The sample's key: the choice's draws.
+        key: u64,
+    },
+}
+
+impl Lod {
+    /// The band's ends in texture cells per footprint: below the first a tree is always a
+    /// mesh, above the second always a texture.
+    fn ends(&self) -> (f32, f32) {
+        let half = (0.5 * self.band).exp2();
+        (self.switch / half, self.switch * half)
+    }
+}
+
+impl Draw {
+    /// The probability that instance `i` is drawn as texture for a footprint of `spread` per
+    /// metre of distance.
+    pub fn texel_probability(scene: &Scene, lod: &Lod, spread: f32, i: u32) -> f32 {
+        let (centre, cell) = scene.instances.centre_and_cell(i);
+        let cells = centre.length() * spread / cell;
+        // Most trees lie outside the band: no logarithm for them.
+        let (lo, hi) = lod.ends();
+        if cells >= hi && lod.band > 0.0 {
+            return 1.0;
+        }
+        if cells <= lo && lod.band > 0.0 {
+            return 0.0;
+        }
+        let octaves = (cells / lod.switch).log2();
+        if !octaves.is_finite() {
+            // 0 cells (the eye inside the tree, or no spread): the finest drawing, the mesh.
+            return if octaves > 0.0 { 1.0 } else { 0.0 };
+        }
+        if lod.band <= 0.0 {
+            return if octaves >= 0.0 { 1.0 } else { 0.0 };
+        }
+        (octaves / lod.band + 0.5).clamp(0.0, 1.0)
+    }
+
+    /// Whether instance `i` is drawn from its texture for this sample.
+    #[inline]
+    pub fn texel(&self, scene: &Scene, i: u32) -> bool {
+        match *self {
+            Draw::Texel => true,
+            Draw::Mesh => false,
+            Draw::Hybrid { lod, spread, key } => {
+                let p = Self::texel_probability(scene, &lod, spread, i);
+                p >= 1.0
+                    || (p > 0.0
+                        && (rng::unit(rng::hash3(key, u64::from(i), purpose::LOD)) as f32) < p)
+            }
+        }
+    }
+}
