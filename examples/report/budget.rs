@@ -68,7 +68,7 @@ fn canopy(path: &Path) -> Vec<f32> {
 
 impl Report {
     /// The budget of the texel method at [`BUDGET_SPP`] on `forest` from `view`.
-    pub fn budget(&self, forest: &str, view: &View) -> Budget {
+    pub fn budget(&self, forest: &str, view: &View<'static>) -> Budget {
         eprintln!("report: error budget of the {} view...", view.name);
         let reference = self.reference(forest, view, &[]);
         let unshadowed_reference = self.reference(forest, view, &["--no-shadows"]);

@@ -5,8 +5,11 @@
 //! error measured against a mesh render at many samples per pixel (the ground truth, cached
 //! under `report/cache/` so reruns are fast): the mesh method at 1 to 64 spp; the texel method
 //! with both density models at 16, 32 and 64 cells and 1 and 4 spp; and every setting of the
-//! texel renderer that trades speed for error. Then flicker: the far view rendered with
-//! sub-pixel camera jitter, and the mean per-pixel standard deviation across the frames.
+//! texel renderer that trades speed for error; the hybrid method at 1 to 16 spp and every
+//! setting of its switch. Then flicker: the far view rendered with sub-pixel camera jitter,
+//! and the mean per-pixel standard deviation across the frames; and a sweep of the camera
+//! from the far view to the near one, the hybrid method at 1 spp against a mesh reference at
+//! each step.
 //!
 //! Then the error budget (`budget.rs`): the texel method's error split into coverage,
 //! shading, shadows and noise. `make budget` runs that part alone.
@@ -36,12 +39,12 @@ const TREES: [(&str, &str); 3] = [
     ("bare", "bare.glb"),
 ];
 
-struct View {
-    name: &'static str,
-    flags: &'static [&'static str],
+struct View<'a> {
+    name: &'a str,
+    flags: &'a [&'a str],
 }
 
-const VIEWS: [View; 3] = [
+const VIEWS: [View<'static>; 3] = [
     // The default framing: the whole mountain from 1.5 km (the paper's figure 6).
     View {
         name: "far",
@@ -73,6 +76,20 @@ const SETTINGS: [(&str, &str); 12] = [
     ("--shadow-lod", "0"),
     ("--shadow-lod", "2"),
 ];
+
+/// The hybrid method's settings, each tried alone at 1 and 4 spp against its defaults.
+const HYBRID_SETTINGS: [(&str, &str); 5] = [
+    ("--lod-switch", "0.5"),
+    ("--lod-switch", "2"),
+    ("--lod-switch", "4"),
+    ("--lod-band", "0"),
+    ("--lod-band", "2"),
+];
+
+/// Views of the camera sweep from the far view to the near one, and the spp of their mesh
+/// references.
+const SWEEP_VIEWS: usize = 8;
+const SWEEP_REFERENCE_SPP: u32 = 64;
 
 /// One measured render.
 struct Row {
@@ -151,7 +168,7 @@ impl Report {
     }
 
     /// Renders `forest` from `view` with `extra` flags to `out`; returns the seconds taken.
-    fn render(&self, forest: &str, view: &View, extra: &[&str], out: &str) -> f64 {
+    fn render(&self, forest: &str, view: &View<'_>, extra: &[&str], out: &str) -> f64 {
         let (w, h) = (WIDTH.to_string(), HEIGHT.to_string());
         let mut args = vec![
             "render", forest, "-o", out, "--width", &w, "--height", &h, "-q",
@@ -164,7 +181,12 @@ impl Report {
     /// The ground truth for `view`: a mesh render at many spp with its canopy AOV, and `extra`
     /// flags (`--no-shadows` for the error budget), reused while the forest, the models and
     /// the mesh renderer's sources are unchanged.
-    fn reference(&self, forest: &str, view: &View, extra: &[&str]) -> PathBuf {
+    fn reference(&self, forest: &str, view: &View<'_>, extra: &[&str]) -> PathBuf {
+        self.reference_at(forest, view, extra, REFERENCE_SPP)
+    }
+
+    /// [`Report::reference`] at `spp` samples per pixel.
+    fn reference_at(&self, forest: &str, view: &View<'_>, extra: &[&str], spp: u32) -> PathBuf {
         let mut key = Sha256::new();
         // The trees' places, not the file: it also records the textures' hashes, and a
         // re-baked texture changes nothing the mesh method draws.
@@ -189,10 +211,7 @@ impl Report {
         ] {
             key.update(std::fs::read(self.root.join(src)).unwrap());
         }
-        key.update(format!(
-            "{:?} {extra:?} {WIDTH} {HEIGHT} {REFERENCE_SPP}",
-            view.flags
-        ));
+        key.update(format!("{:?} {extra:?} {WIDTH} {HEIGHT} {spp}", view.flags));
         let key: String = key.finalize()[..8]
             .iter()
             .map(|b| format!("{b:02x}"))
@@ -202,12 +221,12 @@ impl Report {
         let path = cache.join(format!("{}-{key}.exr", view.name));
         if !path.exists() {
             eprintln!(
-                "report: reference for the {} view ({REFERENCE_SPP} spp mesh {})...",
+                "report: reference for the {} view ({spp} spp mesh {})...",
                 view.name,
                 extra.join(" ")
             );
             let tmp = cache.join(format!("{}-{key}.tmp.exr", view.name));
-            let spp = REFERENCE_SPP.to_string();
+            let spp = spp.to_string();
             let mut flags = vec![
                 "--method", "mesh", "--spp", &spp, "--seed", "7", "--aov", "canopy",
             ];
@@ -235,7 +254,7 @@ impl Report {
     /// the mesh method's spp sweep, every texel variant, then the settings sweep.
     fn measure_view(
         &self,
-        view: &View,
+        view: &View<'static>,
         variants: &[(&str, u32, String)],
         default_forest: &str,
         rows: &mut Vec<Row>,
@@ -286,6 +305,92 @@ impl Report {
             let t = self.render(default_forest, view, &[flag, value], &out);
             record("texel transmittance 32", &format!("{flag} {value}"), 1, t);
         }
+        for spp in [1, 4, 16] {
+            let s = spp.to_string();
+            let t = self.render(
+                default_forest,
+                view,
+                &["--method", "hybrid", "--spp", &s],
+                &out,
+            );
+            record("hybrid", "", spp, t);
+        }
+        for (flag, value) in HYBRID_SETTINGS {
+            for spp in ["1", "4"] {
+                let t = self.render(
+                    default_forest,
+                    view,
+                    &["--method", "hybrid", "--spp", spp, flag, value],
+                    &out,
+                );
+                record(
+                    "hybrid",
+                    &format!("{flag} {value}"),
+                    spp.parse().unwrap(),
+                    t,
+                );
+            }
+        }
+    }
+
+    /// The camera moved from the far view to the near one in `SWEEP_VIEWS` steps (the
+    /// distance to the point looked at shrinking geometrically, that point and the direction
+    /// moving linearly): per step, the hybrid method at 1 spp, and the pure methods at 1 spp
+    /// beside it, against a mesh reference.
+    fn sweep(&self, forest: &str) -> Vec<SweepRow> {
+        eprintln!("report: far-to-near sweep...");
+        self.render(forest, &VIEWS[0], &[], "camera.exr");
+        let [far_eye, far_forward, ..] = camera_of(&self.work.join("camera.exr"));
+        let near_eye = glam::DVec3::new(-110.0, 420.0, 190.0);
+        let near_target = glam::DVec3::new(0.0, 330.0, 40.0);
+        let (near_distance, near_forward) = (
+            (near_target - near_eye).length(),
+            (near_target - near_eye).normalize(),
+        );
+        // The far camera frames the forest's region: it looks at about where the near one
+        // does, from the distance between them.
+        let far_distance = (near_target - far_eye).length();
+        let far_target = far_eye + far_forward * far_distance;
+        let mut rows = Vec::new();
+        for k in 0..SWEEP_VIEWS {
+            let u = k as f64 / (SWEEP_VIEWS - 1) as f64;
+            let target = far_target.lerp(near_target, u);
+            let forward = far_forward.lerp(near_forward, u).normalize();
+            let distance = far_distance.powf(1.0 - u) * near_distance.powf(u);
+            let eye = target - forward * distance;
+            let fov = 35.0 + 5.0 * u;
+            let (eye, target, fov) = (
+                format!("--eye={},{},{}", eye.x, eye.y, eye.z),
+                format!("{},{},{}", target.x, target.y, target.z),
+                fov.to_string(),
+            );
+            let flags = [
+                eye.as_str(),
+                "--target",
+                target.as_str(),
+                "--fov",
+                fov.as_str(),
+            ];
+            let name = format!("sweep{k}");
+            let view = View {
+                name: &name,
+                flags: &flags,
+            };
+            let reference = self.reference_at(forest, &view, &[], SWEEP_REFERENCE_SPP);
+            let reference = Rgba::read(&reference, &Default::default()).unwrap();
+            let out = format!("{name}.exr");
+            let run = |method: &str| {
+                let seconds = self.render(forest, &view, &["--method", method], &out);
+                (seconds, measure(&self.work.join(&out), &reference).0)
+            };
+            rows.push(SweepRow {
+                distance,
+                hybrid: run("hybrid"),
+                texel: run("texel"),
+                mesh: run("mesh"),
+            });
+        }
+        rows
     }
 
     /// Flicker: the far view with the camera moved by a fraction of a pixel between frames, as
@@ -343,13 +448,23 @@ impl Report {
     }
 }
 
+/// One step of the far-to-near sweep: the eye's distance to the point it looks at, and each
+/// method's (seconds, rmse) at 1 spp.
+struct SweepRow {
+    distance: f64,
+    hybrid: (f64, f64),
+    texel: (f64, f64),
+    mesh: (f64, f64),
+}
+
 fn measure(out: &Path, reference: &Rgba) -> (f64, f64, f64) {
     let image = Rgba::read(out, &Default::default()).unwrap();
     let c = compare(&image, reference, |_| true);
     (c.rgb.rmse, c.rgb.relative_mse, c.alpha.rmse)
 }
 
-/// Log-log interpolation of the mesh curve's time at `error`; `None` outside its range.
+/// Log-log interpolation of a method's curve (the mesh's, or any whose error falls as time
+/// grows) to its time at `error`; `None` outside its range.
 fn mesh_time_at(mesh: &[(f64, f64)], error: f64) -> Option<f64> {
     // Points are (seconds, error) with error falling as time grows.
     mesh.windows(2).find_map(|w| {
@@ -370,14 +485,17 @@ fn camera_of(path: &Path) -> [glam::DVec3; 4] {
         .attributes
         .world_to_camera
         .expect("worldToCamera");
-    // Row-vector convention: p_camera = p_world * M, so M's columns are the camera axes.
-    let m = glam::DMat4::from_cols_array(&m.map(f64::from)).transpose();
+    // Row-vector convention, p_camera = p_world * M, stored row by row: read column by column,
+    // the same numbers are M's transpose, the column-vector transform glam applies. (Reading
+    // them as M itself put the eye at the world's origin, and the flicker frames with it.)
+    let m = glam::DMat4::from_cols_array(&m.map(f64::from));
     let inv = m.inverse();
     let eye = inv.transform_point3(glam::DVec3::ZERO);
     let axis = |v: glam::DVec3| inv.transform_vector3(v).normalize();
+    // The camera looks along its +z (`worldToNDC` divides by z).
     [
         eye,
-        axis(glam::DVec3::NEG_Z),
+        axis(glam::DVec3::Z),
         axis(glam::DVec3::X),
         axis(glam::DVec3::Y),
     ]
@@ -435,18 +553,36 @@ fn main() {
         report.measure_view(view, &variants, &default_forest, &mut rows);
     }
     let flicker = report.flicker(&default_forest);
+    let sweep = report.sweep(&default_forest);
     let budget = budget::run(&report, &default_forest, &root.join("report"));
 
     write_outputs(
         &root.join("report"),
-        &rows,
-        &flicker,
-        &budget,
+        &Measured {
+            rows: &rows,
+            flicker: &flicker,
+            sweep: &sweep,
+            budget: &budget,
+        },
         started.elapsed().as_secs_f64(),
     );
 }
 
-fn write_outputs(dir: &Path, rows: &[Row], flicker: &[(&str, f64)], budget: &str, seconds: f64) {
+/// Everything the report measured.
+struct Measured<'a> {
+    rows: &'a [Row],
+    flicker: &'a [(&'a str, f64)],
+    sweep: &'a [SweepRow],
+    budget: &'a str,
+}
+
+fn write_outputs(dir: &Path, m: &Measured, seconds: f64) {
+    let Measured {
+        rows,
+        flicker,
+        sweep,
+        budget,
+    } = *m;
     write_csv(dir, rows);
     let mut md = format!(
         "# Speed against error\n\nWritten by `make report` ({seconds:.0} s). Images {WIDTH} x {HEIGHT}; \
@@ -457,6 +593,16 @@ fn write_outputs(dir: &Path, rows: &[Row], flicker: &[(&str, f64)], budget: &str
     for view in VIEWS.iter().map(|v| v.name) {
         write_headline(&mut md, view, rows);
     }
+    md += "\n## The hybrid method at equal error\n\nHow much faster the hybrid method (default \
+           switch and band) is than each pure method at its own error: the pure method's time \
+           at that error, interpolated log-log along its spp curve (the texel method's: \
+           transmittance, 32 cells), over the hybrid's; a dash where the pure method's curve \
+           does not reach that error.\n\n| view | hybrid | its time, error | mesh time | faster than mesh | texel time | faster than texel |\n|---|---|---|---|---|---|---|\n";
+    for view in VIEWS.iter().map(|v| v.name) {
+        write_hybrid_ratios(&mut md, view, rows);
+    }
+    md += "\n";
+    write_sweep(&mut md, dir, sweep);
     md += "\n";
     md += budget;
     md += "\n## Flicker (far view, camera moved by sub-pixel steps over ";
@@ -485,6 +631,83 @@ fn write_csv(dir: &Path, rows: &[Row]) {
         .unwrap();
     }
     std::fs::write(dir.join("speed_vs_error.csv"), csv).unwrap();
+}
+
+/// Per default hybrid render of `view`: its time and error, and each pure method's time at
+/// that error.
+fn write_hybrid_ratios(md: &mut String, view: &str, rows: &[Row]) {
+    let curve = |method: &str| -> Vec<(f64, f64)> {
+        rows.iter()
+            .filter(|r| r.view == view && r.method == method && r.setting.is_empty())
+            .map(|r| (r.seconds, r.rmse))
+            .collect()
+    };
+    let (mesh, texel) = (curve("mesh"), curve("texel transmittance 32"));
+    for r in rows
+        .iter()
+        .filter(|r| r.view == view && r.method == "hybrid" && r.setting.is_empty())
+    {
+        let at = |c: &[(f64, f64)]| match mesh_time_at(c, r.rmse) {
+            Some(t) => (format!("{t:.2} s"), format!("{:.2}x", t / r.seconds)),
+            None => ("-".into(), "-".into()),
+        };
+        let ((mt, mx), (tt, tx)) = (at(&mesh), at(&texel));
+        writeln!(
+            md,
+            "| {view} | {} spp | {:.2} s, {:.4} | {mt} | {mx} | {tt} | {tx} |",
+            r.spp, r.seconds, r.rmse
+        )
+        .unwrap();
+    }
+}
+
+/// The far-to-near sweep: a table per step and a plot of error and time against distance.
+fn write_sweep(md: &mut String, dir: &Path, sweep: &[SweepRow]) {
+    writeln!(
+        md,
+        "## Far to near\n\nThe camera moved from the far view to the near one in {SWEEP_VIEWS} steps, \
+         each method at 1 spp against a {SWEEP_REFERENCE_SPP}-spp mesh render of the step.\n\n\
+         ![](sweep.png)\n\n| step | distance m | hybrid s, rmse | texel s, rmse | mesh s, rmse |\n|---|---|---|---|---|"
+    )
+    .unwrap();
+    for (k, s) in sweep.iter().enumerate() {
+        let f = |(t, e): (f64, f64)| format!("{t:.2}, {e:.4}");
+        writeln!(
+            md,
+            "| {k} | {:.0} | {} | {} | {} |",
+            s.distance,
+            f(s.hybrid),
+            f(s.texel),
+            f(s.mesh)
+        )
+        .unwrap();
+    }
+    let series =
+        |name: &str, k: usize, pick: &dyn Fn(&SweepRow) -> (f64, f64), time: bool| Series {
+            name: format!("{name} {}", if time { "seconds / 100" } else { "rmse" }),
+            color: PALETTE[k % PALETTE.len()],
+            points: sweep
+                .iter()
+                .map(|s| {
+                    let (t, e) = pick(s);
+                    (s.distance, if time { t / 100.0 } else { e })
+                })
+                .collect(),
+        };
+    let plot = Plot {
+        title: "far to near, 1 spp: error and time against distance".into(),
+        x_label: "distance to the point looked at (m)".into(),
+        y_label: "rmse; seconds / 100".into(),
+        series: vec![
+            series("hybrid", 0, &|s| s.hybrid, false),
+            series("texel", 1, &|s| s.texel, false),
+            series("mesh", 2, &|s| s.mesh, false),
+            series("hybrid", 3, &|s| s.hybrid, true),
+            series("texel", 4, &|s| s.texel, true),
+            series("mesh", 5, &|s| s.mesh, true),
+        ],
+    };
+    plot.draw(900, 560).save(dir.join("sweep.png")).unwrap();
 }
 
 /// A render's method, setting and spp, as the headline names it.
