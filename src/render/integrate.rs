@@ -89,10 +89,17 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
         .ground
         .as_ref()
         .and_then(|g| g.nearest(&ray, f32::INFINITY).map(|h| (g, h)));
-    let t_max = ground_hit.map_or(f32::INFINITY, |(_, (_, h))| h.t);
-    // The walk meets the trees drawn as meshes in the same front-to-back order, and stops at
-    // the nearest surface of theirs it finds.
-    let mut walk = Walk::new(scene, ray, t_max, spread, march.lod_bias, draw, key);
+    let mut t_max = ground_hit.map_or(f32::INFINITY, |(_, (_, h))| h.t);
+    // The trees drawn as models: their nearest surface ends the ray, and where no texture
+    // lies in front of it (most rays of a near view) there is nothing to march.
+    let (tree_hit, textures) = match draw {
+        Draw::Texel => (None, true),
+        _ => mesh::nearest_drawn(scene, &ray, t_max, key, &draw),
+    };
+    if let Some(h) = &tree_hit {
+        t_max = h.hit.t;
+    }
+    let mut walk = Walk::new(scene, ray, t_max, spread, march.lod_bias, draw);
     let mut out = Radiance {
         distance: f32::INFINITY,
         ..Radiance::default()
@@ -101,7 +108,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
     let mut t = 0.0f32;
     let mut segment = 0u64;
     SURFACES.with_borrow_mut(|s| s.clear());
-    while let Some(start) = walk.advance(t) {
+    while textures && let Some(start) = walk.advance(t) {
         t = start;
         if let Some(next) = walk.empty_until(t) {
             // Whole segments in empty space are jumped over with their draws, so the samples
@@ -179,9 +186,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
         transmittance = left;
     }
     out.canopy = 1.0 - transmittance;
-    // A ray stopped early (by the cut-off or the roulette) may not have reached a model that
-    // lies further on: what is behind it then gets none of its light, whatever it is.
-    let behind = match (walk.mesh_hit.take(), ground_hit) {
+    let behind = match (tree_hit, ground_hit) {
         (Some(h), _) => Behind::Tree(h),
         (None, Some((g, h))) => Behind::Ground(g, h),
         (None, None) => Behind::Sky,

@@ -11,6 +11,7 @@
 use glam::Vec3;
 
 use super::instances::TreeTransform;
+use super::lod::Draw;
 use super::scene::{Scene, TreeMesh};
 use super::shading::{Radiance, shade, shade_ground, sun_radiance};
 use crate::geom::{Ray, TriangleHit, barycentric_point, offset_origin};
@@ -54,15 +55,33 @@ fn nearest_tree(scene: &Scene, ray: &Ray, t_max: f32, key: u64) -> Option<TreeHi
     Some(h)
 }
 
-/// The nearest surface of instance `i`'s model along `local` (the ray in its model space)
-/// before `t_max`; `key` draws its alpha-blended triangles.
-pub(super) fn hit_instance(
+/// The nearest surface along `ray` before `t_max` of the trees `draw` draws as models, and
+/// whether the ray enters the box of a tree it draws as a texture before that surface.
+pub(super) fn nearest_drawn(
     scene: &Scene,
-    i: u32,
-    local: &Ray,
+    ray: &Ray,
     t_max: f32,
     key: u64,
-) -> Option<TreeHit> {
+    draw: &Draw,
+) -> (Option<TreeHit>, bool) {
+    let mut texture = f32::INFINITY;
+    let hit = scene.instances.nearest(ray, t_max, |i, local, t_max| {
+        if draw.texel(scene, i) {
+            if let Some((enter, _)) = scene.instances.local_interval(i, local, t_max) {
+                texture = texture.min(enter);
+            }
+            return None;
+        }
+        hit_instance(scene, i, local, t_max, key).map(|h| (h.hit.t, h))
+    });
+    let hit = hit.map(|(_, h)| h);
+    let end = hit.as_ref().map_or(t_max, |h| h.hit.t);
+    (hit, texture < end)
+}
+
+/// The nearest surface of instance `i`'s model along `local` (the ray in its model space)
+/// before `t_max`; `key` draws its alpha-blended triangles.
+fn hit_instance(scene: &Scene, i: u32, local: &Ray, t_max: f32, key: u64) -> Option<TreeHit> {
     let tree = tree_of(scene, scene.instances.get(i));
     let (triangle, hit) = tree.triangles.nearest(local, 0.0, t_max, |t, h| {
         present(scene, i, tree, t, h.w, key)

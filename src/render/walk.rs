@@ -13,7 +13,6 @@ use glam::Vec3;
 
 use super::instances::{Intervals, TreeTransform};
 use super::lod::Draw;
-use super::mesh::{self, TreeHit};
 use super::scene::Scene;
 use crate::geom::Ray;
 use crate::rng;
@@ -128,8 +127,7 @@ impl Active {
 
 /// The front-to-back walk of the instances along one ray: which are active (the ray is inside
 /// their box) at each point, and the mip level each is read at. Only the trees its sample
-/// draws from their textures are ever active; those it draws as meshes are intersected as the
-/// walk enters their boxes, and the nearest surface found ends the walk.
+/// draws from their textures are ever active.
 pub(super) struct Walk<'a> {
     pub(super) scene: &'a Scene,
     pub(super) ray: Ray,
@@ -139,11 +137,8 @@ pub(super) struct Walk<'a> {
     pub(super) spread: f32,
     pub(super) lod_bias: f32,
     pub(super) draw: Draw,
-    /// The ray's key: the draws of the models' alpha-blended triangles.
-    key: u64,
-    /// Where the walk ends: the terrain, or the nearest model surface met so far.
+    /// Where the walk ends: the terrain, or the nearest surface of a tree drawn as a model.
     pub(super) t_max: f32,
-    pub(super) mesh_hit: Option<TreeHit>,
 }
 
 impl<'a> Walk<'a> {
@@ -154,7 +149,6 @@ impl<'a> Walk<'a> {
         spread: f32,
         lod_bias: f32,
         draw: Draw,
-        key: u64,
     ) -> Walk<'a> {
         Walk {
             scene,
@@ -164,9 +158,7 @@ impl<'a> Walk<'a> {
             spread,
             lod_bias,
             draw,
-            key,
             t_max,
-            mesh_hit: None,
         }
     }
 
@@ -179,11 +171,6 @@ impl<'a> Walk<'a> {
     pub(super) fn admit(&mut self, t: f32) {
         while let Some((i, enter, exit)) = self.intervals.next_entered(t) {
             if !self.draw.texel(self.scene, i) {
-                let local = self.scene.instances.get(i).local_ray(&self.ray);
-                if let Some(h) = mesh::hit_instance(self.scene, i, &local, self.t_max, self.key) {
-                    self.t_max = h.hit.t;
-                    self.mesh_hit = Some(h);
-                }
                 continue;
             }
             let footprint = enter * self.spread;
@@ -213,9 +200,6 @@ impl<'a> Walk<'a> {
         loop {
             self.admit(t);
             self.retire(t);
-            if t >= self.t_max {
-                return None;
-            }
             if !self.active.is_empty() {
                 return Some(t);
             }
