@@ -279,15 +279,14 @@ impl Report {
                 alpha_rmse,
             });
         };
-        for spp in [1, 4, 16, 64] {
+        // A method with its default settings at `spp`.
+        let plain = |method: &str, spp: u32| {
             let s = spp.to_string();
-            let t = self.render(
-                default_forest,
-                view,
-                &["--method", "mesh", "--spp", &s],
-                &out,
-            );
-            record("mesh", "", spp, t);
+            let flags = ["--method", method, "--spp", &s];
+            self.render(default_forest, view, &flags, &out)
+        };
+        for spp in [1, 4, 16, 64] {
+            record("mesh", "", spp, plain("mesh", spp));
         }
         for (density, resolution, forest) in variants {
             let spps: &[u32] = if *density == "transmittance" && *resolution == 32 {
@@ -306,14 +305,7 @@ impl Report {
             record("texel transmittance 32", &format!("{flag} {value}"), 1, t);
         }
         for spp in [1, 4, 16] {
-            let s = spp.to_string();
-            let t = self.render(
-                default_forest,
-                view,
-                &["--method", "hybrid", "--spp", &s],
-                &out,
-            );
-            record("hybrid", "", spp, t);
+            record("hybrid", "", spp, plain("hybrid", spp));
         }
         for (flag, value) in HYBRID_SETTINGS {
             for spp in ["1", "4"] {

@@ -2,31 +2,22 @@
 //! blend in expectation, textures composite over meshes in depth order, and a tree drawn from
 //! its model is never darkened by its own texture.
 
-use glam::{DVec3, Vec3, Vec4};
+use glam::{DVec3, Vec3};
 
 use super::integrate;
 use super::lod::{Draw, Lod};
+use super::mesh_tests::{SQUARE, cuboid, material, quads};
 use super::scene::{Lighting, Look, Placed, Scene, Shading, Sun, TreeMesh};
 use super::tests::{HEAD_ON, PLAIN, ground, look, placed, uniform_texel};
 use super::walk::March;
 use super::{Camera, Film, Method, RenderSettings, render};
 use crate::bake::{self, BakeSettings};
-use crate::import::{AlphaMode, Material, Mesh};
+use crate::import::{AlphaMode, Mesh};
 
 /// An opaque box 2 m across standing on the origin, its mesh and its texture baked from it.
 fn boxed_tree() -> (crate::volume::Texel, TreeMesh) {
-    let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
-    let c =
-        |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
-    let faces = [
-        [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)],
-        [c(1, 0, 0), c(0, 0, 0), c(0, 1, 0), c(1, 1, 0)],
-        [c(1, 0, 1), c(1, 0, 0), c(1, 1, 0), c(1, 1, 1)],
-        [c(0, 0, 0), c(0, 0, 1), c(0, 1, 1), c(0, 1, 0)],
-        [c(0, 1, 1), c(1, 1, 1), c(1, 1, 0), c(0, 1, 0)],
-        [c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)],
-    ];
-    let model = quads(&faces, 0.5);
+    let faces = cuboid(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
+    let model = bark(&faces, 0.5);
     let texel = bake::bake(
         &model,
         &BakeSettings {
@@ -40,21 +31,9 @@ fn boxed_tree() -> (crate::volume::Texel, TreeMesh) {
     (texel, TreeMesh::new(model, vec![false; n]))
 }
 
-fn quads(quads: &[[Vec3; 4]], albedo: f32) -> Mesh {
-    let positions = quads.iter().flatten().copied().collect();
-    let triangles: Vec<[u32; 3]> = (0..quads.len() as u32)
-        .flat_map(|q| [[0, 1, 2], [0, 2, 3]].map(|t| t.map(|v| 4 * q + v)))
-        .collect();
-    Mesh::plain(
-        positions,
-        &triangles,
-        Material {
-            name: "bark".into(),
-            base_color: Vec4::new(albedo, albedo, albedo, 1.0),
-            alpha_mode: AlphaMode::Opaque,
-            ..Material::default()
-        },
-    )
+/// Opaque quads of grey `albedo`.
+fn bark(faces: &[[Vec3; 4]], albedo: f32) -> Mesh {
+    quads(faces, material("bark", albedo, 1.0, AlphaMode::Opaque))
 }
 
 fn lone_tree_scene(eye: DVec3, sun: Sun) -> Scene {
@@ -147,15 +126,7 @@ fn a_tree_well_inside_each_regime_renders_as_the_pure_method() {
 fn in_the_band_the_expected_image_is_the_blend_of_the_two() {
     // A texture and a model that look different: a grey cloud against a white slab.
     let cloud = uniform_texel([8, 8, 2], 0.5, DVec3::new(-2.0, -2.0, -0.5), 0.7, [0.2; 3]);
-    let slab = quads(
-        &[[
-            Vec3::new(-1.5, -1.5, 0.0),
-            Vec3::new(1.5, -1.5, 0.0),
-            Vec3::new(1.5, 1.5, 0.0),
-            Vec3::new(-1.5, 1.5, 0.0),
-        ]],
-        0.9,
-    );
+    let slab = bark(&[SQUARE.map(|p| p * 0.75)], 0.9);
     let eye = DVec3::new(0.0, 0.0, 200.0);
     let scene = Scene::new(
         eye,
@@ -220,15 +191,7 @@ fn textures_composite_over_meshes_in_depth_order() {
         [0.0; 3],
     );
     let slab_box = uniform_texel([2, 2, 1], 2.0, DVec3::new(-2.0, -2.0, -1.0), 0.0, [0.0; 3]);
-    let slab = quads(
-        &[[
-            Vec3::new(-2.0, -2.0, 0.0),
-            Vec3::new(2.0, -2.0, 0.0),
-            Vec3::new(2.0, 2.0, 0.0),
-            Vec3::new(-2.0, 2.0, 0.0),
-        ]],
-        0.6,
-    );
+    let slab = bark(&[SQUARE], 0.6);
     let looks = [0, 1].map(|texel| Look { texel, ..look() });
     // Off the slab's diagonal, which a ray exactly on it would meet on an edge.
     let eye = DVec3::new(0.3, 0.2, 10.0);

@@ -484,36 +484,17 @@ fn light_ground(
     let normal = g.normal(tri, ray.dir);
     let triangle = &g.mesh.triangles[tri as usize];
     let albedo = g.mesh.base_color(triangle, hit.w).truncate();
-    let lift = g.leave(tri, &hit, normal, scene.sun.direction);
-    let lit = if normal.dot(scene.sun.direction) <= 0.0 {
-        0.0
-    } else if !scene.shadows {
-        sun_radiance(scene)
-    } else {
-        roulette(
-            transmittance,
-            l.march,
-            rng::hash3(l.key, 0, purpose::GROUND_ROULETTE),
-            &mut out.shadow_rays,
-            || {
-                let caster = Caster {
-                    footprint: hit.t * l.spread,
-                    key: rng::hash3(l.key, 0, purpose::GROUND_LIGHT),
-                    own: &[],
-                    draw: l.draw,
-                };
-                sun_light(scene, lift, l.march, &caster)
-            },
-        )
+    let surface = Opaque {
+        t: hit.t,
+        normal,
+        albedo,
+        species: 0.0,
+        leave: g.leave(tri, &hit, normal, scene.sun.direction),
+        light_key: rng::hash3(l.key, 0, purpose::GROUND_LIGHT),
     };
-    let source = shade_ground(scene, albedo, normal, lit);
-    out.rgb += source * transmittance;
-    if out.distance.is_infinite() {
-        out.distance = hit.t;
-        out.normal = normal;
-        out.albedo = albedo;
-    }
-    out.transmittance = 0.0;
+    light_opaque(scene, &surface, transmittance, l, out, |lit| {
+        shade_ground(scene, albedo, normal, lit)
+    });
 }
 
 /// A tree drawn from its polygon model where the view `ray` hits it, seen through
@@ -529,7 +510,43 @@ fn light_tree(
     out: &mut Radiance,
 ) {
     let s = mesh::tree_surface(scene, h, ray.dir);
-    let lit = if s.normal.dot(scene.sun.direction) <= 0.0 {
+    let surface = Opaque {
+        t: h.hit.t,
+        normal: s.normal,
+        albedo: s.albedo,
+        species: s.species,
+        leave: s.leave,
+        // The ray's own key: its mesh stream is the one the mesh method's shadow ray draws
+        // alpha-blended triangles from.
+        light_key: l.key,
+    };
+    light_opaque(scene, &surface, transmittance, l, out, |lit| {
+        shade(scene, s.albedo, Some(s.normal), lit, -ray.dir)
+    });
+}
+
+/// An opaque surface ending a view ray (the terrain, or a tree's model): where, what the AOVs
+/// report of it, where its shadow ray leaves, and that ray's key.
+struct Opaque {
+    t: f32,
+    normal: Vec3,
+    albedo: Vec3,
+    species: f32,
+    leave: Vec3,
+    light_key: u64,
+}
+
+/// `surface` seen through `transmittance`: lit by the sun through everything (by roulette, as
+/// a tree sample is), shaded by `shade(light)`, and the ray's surface where no texture was one.
+fn light_opaque(
+    scene: &Scene,
+    surface: &Opaque,
+    transmittance: f32,
+    l: &SurfaceLight,
+    out: &mut Radiance,
+    shade: impl FnOnce(f32) -> Vec3,
+) {
+    let lit = if surface.normal.dot(scene.sun.direction) <= 0.0 {
         0.0
     } else if !scene.shadows {
         sun_radiance(scene)
@@ -540,24 +557,22 @@ fn light_tree(
             rng::hash3(l.key, 0, purpose::GROUND_ROULETTE),
             &mut out.shadow_rays,
             || {
-                // The ray's own key: its mesh stream is the one the mesh method's shadow ray
-                // draws alpha-blended triangles from.
                 let caster = Caster {
-                    footprint: h.hit.t * l.spread,
-                    key: l.key,
+                    footprint: surface.t * l.spread,
+                    key: surface.light_key,
                     own: &[],
                     draw: l.draw,
                 };
-                sun_light(scene, s.leave, l.march, &caster)
+                sun_light(scene, surface.leave, l.march, &caster)
             },
         )
     };
-    out.rgb += shade(scene, s.albedo, Some(s.normal), lit, -ray.dir) * transmittance;
+    out.rgb += shade(lit) * transmittance;
     if out.distance.is_infinite() {
-        out.distance = h.hit.t;
-        out.normal = s.normal;
-        out.albedo = s.albedo;
-        out.species = s.species;
+        out.distance = surface.t;
+        out.normal = surface.normal;
+        out.albedo = surface.albedo;
+        out.species = surface.species;
     }
     out.transmittance = 0.0;
 }

@@ -66,23 +66,16 @@ impl Draw {
     pub fn texel_probability(scene: &Scene, lod: &Lod, spread: f32, i: u32) -> f32 {
         let (centre, cell) = scene.instances.centre_and_cell(i);
         let cells = centre.length() * spread / cell;
-        // Most trees lie outside the band: no logarithm for them.
+        // Most trees lie outside the band, which needs no logarithm; a hard switch is all
+        // outside. 0 cells (the eye at the tree's centre) is the finest drawing, the model.
         let (lo, hi) = lod.ends();
-        if cells >= hi && lod.band > 0.0 {
-            return 1.0;
+        if cells >= hi {
+            1.0
+        } else if cells <= lo {
+            0.0
+        } else {
+            ((cells / lod.switch).log2() / lod.band + 0.5).clamp(0.0, 1.0)
         }
-        if cells <= lo && lod.band > 0.0 {
-            return 0.0;
-        }
-        let octaves = (cells / lod.switch).log2();
-        if !octaves.is_finite() {
-            // 0 cells (the eye inside the tree, or no spread): the finest drawing, the mesh.
-            return if octaves > 0.0 { 1.0 } else { 0.0 };
-        }
-        if lod.band <= 0.0 {
-            return if octaves >= 0.0 { 1.0 } else { 0.0 };
-        }
-        (octaves / lod.band + 0.5).clamp(0.0, 1.0)
     }
 
     /// Whether instance `i` is drawn from its texture for this sample.

@@ -47,14 +47,6 @@ fn tree_of<'a>(scene: &'a Scene, inst: &TreeTransform) -> &'a TreeMesh {
     &scene.meshes[scene.looks[inst.look as usize].texel]
 }
 
-/// The nearest tree surface along `ray` before `t_max`.
-fn nearest_tree(scene: &Scene, ray: &Ray, t_max: f32, key: u64) -> Option<TreeHit> {
-    let (_, h) = scene.instances.nearest(ray, t_max, |i, local, t_max| {
-        hit_instance(scene, i, local, t_max, key).map(|h| (h.hit.t, h))
-    })?;
-    Some(h)
-}
-
 /// The nearest surface along `ray` before `t_max` of the trees `draw` draws as models, and
 /// whether the ray enters the box of a tree it draws as a texture before that surface.
 pub(super) fn nearest_drawn(
@@ -177,25 +169,25 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
     let shadow_key = rng::mix64(key ^ rng::purpose::MESH_SHADOW);
     // The surface seen, and where a ray leaving it towards the sun may start.
     let sun = scene.sun.direction;
-    let (normal, albedo, t, species, leave) = if let Some(h) = nearest_tree(scene, &ray, t_max, key)
-    {
-        let s = tree_surface(scene, &h, dir);
-        out.canopy = 1.0;
-        out.mesh_canopy = 1.0;
-        (s.normal, s.albedo, h.hit.t, s.species, s.leave)
-    } else if let (Some(g), Some((tri, hit))) = (&scene.ground, ground_hit) {
-        let triangle = &g.mesh.triangles[tri as usize];
-        let albedo = g.mesh.base_color(triangle, hit.w).truncate();
-        let n = g.normal(tri, dir);
-        (n, albedo, hit.t, 0.0, g.leave(tri, &hit, n, sun))
-    } else {
-        out.transmittance = 1.0;
-        if let Some(sky) = scene.sky {
-            out.rgb = sky;
-            out.transmittance = 0.0;
-        }
-        return out;
-    };
+    let (normal, albedo, t, species, leave) =
+        if let (Some(h), _) = nearest_drawn(scene, &ray, t_max, key, &Draw::Mesh) {
+            let s = tree_surface(scene, &h, dir);
+            out.canopy = 1.0;
+            out.mesh_canopy = 1.0;
+            (s.normal, s.albedo, h.hit.t, s.species, s.leave)
+        } else if let (Some(g), Some((tri, hit))) = (&scene.ground, ground_hit) {
+            let triangle = &g.mesh.triangles[tri as usize];
+            let albedo = g.mesh.base_color(triangle, hit.w).truncate();
+            let n = g.normal(tri, dir);
+            (n, albedo, hit.t, 0.0, g.leave(tri, &hit, n, sun))
+        } else {
+            out.transmittance = 1.0;
+            if let Some(sky) = scene.sky {
+                out.rgb = sky;
+                out.transmittance = 0.0;
+            }
+            return out;
+        };
     let lit = if normal.dot(sun) > 0.0 {
         out.shadow_rays = u32::from(scene.shadows);
         if scene.shadows && sun_hidden(scene, leave, shadow_key) {

@@ -12,7 +12,7 @@ use crate::bake::{self, BakeSettings};
 use crate::import::{AlphaMode, Material, Mesh};
 
 /// A mesh of quads (corners counter-clockwise seen from the side they face), one material.
-fn quads(quads: &[[Vec3; 4]], material: Material) -> Mesh {
+pub(super) fn quads(quads: &[[Vec3; 4]], material: Material) -> Mesh {
     let positions = quads.iter().flatten().copied().collect();
     let triangles: Vec<[u32; 3]> = (0..quads.len() as u32)
         .flat_map(|q| [[0, 1, 2], [0, 2, 3]].map(|t| t.map(|v| 4 * q + v)))
@@ -20,7 +20,7 @@ fn quads(quads: &[[Vec3; 4]], material: Material) -> Mesh {
     Mesh::plain(positions, &triangles, material)
 }
 
-fn material(name: &str, albedo: f32, alpha: f32, alpha_mode: AlphaMode) -> Material {
+pub(super) fn material(name: &str, albedo: f32, alpha: f32, alpha_mode: AlphaMode) -> Material {
     Material {
         name: name.into(),
         base_color: Vec4::new(albedo, albedo, albedo, alpha),
@@ -30,7 +30,7 @@ fn material(name: &str, albedo: f32, alpha: f32, alpha_mode: AlphaMode) -> Mater
 }
 
 /// The six outward faces of the box `lo`..`hi`.
-fn cuboid(lo: Vec3, hi: Vec3) -> Vec<[Vec3; 4]> {
+pub(super) fn cuboid(lo: Vec3, hi: Vec3) -> Vec<[Vec3; 4]> {
     let c =
         |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
     vec![
@@ -71,7 +71,7 @@ fn scene_of(
 }
 
 /// A square 4 m x 4 m in the plane z = 0, facing +z.
-const SQUARE: [Vec3; 4] = [
+pub(super) const SQUARE: [Vec3; 4] = [
     Vec3::new(-2.0, -2.0, 0.0),
     Vec3::new(2.0, -2.0, 0.0),
     Vec3::new(2.0, 2.0, 0.0),

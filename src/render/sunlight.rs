@@ -60,11 +60,11 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
     let opaque = -march.cutoff.ln();
     let lod_bias = march.lod_bias + march.shadow_lod;
     let mut depth = 0.0f32;
+    let mesh_key = rng::mix64(key ^ purpose::MESH_SHADOW);
     scene
         .sun_beam
         .visit(&scene.instances, &ray, t_max, |i, local, _| {
             if !draw.texel(scene, i) {
-                let mesh_key = rng::mix64(key ^ purpose::MESH_SHADOW);
                 if mesh::blocks(scene, i, local, t_max, mesh_key) {
                     depth = f32::INFINITY;
                     return Some(0.0);
