@@ -26,8 +26,9 @@ pub struct Exr {
 }
 
 /// Most bytes a render holds per pixel: the film's layers, the pixels the tiles hand back, and
-/// the EXR being encoded (checked with [`crate::limits::check_memory`] before a render starts).
-pub const BYTES_PER_PIXEL: u64 = 192;
+/// the EXR being encoded (checked with [`crate::limits::check_memory`] before a render starts;
+/// a test in `render` sums them from the types).
+pub const BYTES_PER_PIXEL: u64 = 320;
 
 /// Largest finite half float.
 const HALF_MAX: f32 = 65504.0;

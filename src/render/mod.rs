@@ -200,3 +200,19 @@ fn pixel(
         shadow_rays: shadow_rays as f32,
     }
 }
+
+/// The memory a render is checked for before it starts covers what it holds per pixel: the
+/// film's layers, the tiles' pixels, and the EXR's channels (every AOV, as floats) twice, as
+/// samples and as the encoded file.
+#[test]
+fn the_memory_bound_per_pixel_covers_what_a_render_holds() {
+    use std::mem::size_of;
+    let film = size_of::<[f32; 4]>() + 2 * size_of::<glam::Vec3>() + 6 * size_of::<f32>();
+    let tiles = size_of::<(u32, u32, Pixel)>();
+    // R G B A Z, normal, albedo, canopy, lod, species, samples.
+    let channels = 5 + 3 + 3 + 1 + 2 + 1 + 2;
+    let exr = 2 * channels * size_of::<f32>();
+    let held = (film + tiles + exr) as u64;
+    println!("{film} + {tiles} + {exr} = {held} bytes a pixel");
+    assert!(film::BYTES_PER_PIXEL >= held, "{held}");
+}
