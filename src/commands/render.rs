@@ -11,11 +11,12 @@ use texel_forest::limits::{Limits, check_memory};
 use texel_forest::output::{OutputId, Outputs, depfile};
 use texel_forest::render::load::{self, LoadedScene, SceneRequest};
 use texel_forest::render::{
-    self, Aovs, Camera, Film, Lighting, Lod, March, Method, RenderSettings, Shading, film,
+    self, Aovs, Camera, Film, Lighting, Lod, March, Method, RenderSettings, Shading, ShadowRays,
+    film,
     view::{self, CameraChoice},
 };
 
-use crate::cli::{AovArg, MethodArg, RenderArgs};
+use crate::cli::{AovArg, MethodArg, RenderArgs, ShadowsArg};
 
 /// The outputs a render writes, planned before anything is read.
 struct Planned {
@@ -80,6 +81,15 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
                 "meshes and textures",
                 format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
             ),
+        };
+        let (grids, bytes) = scene.sun_depth.built();
+        let work = if grids > 0 {
+            format!(
+                "{work}, {grids} sun-depth grids ({:.1} MiB)",
+                bytes as f64 / f64::from(1 << 20)
+            )
+        } else {
+            work
         };
         let memory = texel_forest::limits::peak_memory()
             .map_or(String::new(), |b| format!(", peak memory {} MiB", b >> 20));
@@ -178,6 +188,10 @@ fn settings(args: &RenderArgs) -> RenderSettings {
             lod_bias: args.lod_bias,
             shadow_lod: args.shadow_lod,
             shadow_share: args.shadow_share,
+            shadows: match args.shadows {
+                ShadowsArg::Cached => ShadowRays::Cached,
+                ShadowsArg::Exact => ShadowRays::Exact,
+            },
             view_share: args.view_share,
         },
         lod: Lod {

@@ -223,6 +223,10 @@ impl Instances {
 pub struct Beam(crate::geom::Beam);
 
 impl Beam {
+    /// Whether `ray` runs along the beam's direction.
+    pub fn carries(&self, ray: &Ray) -> bool {
+        self.0.carries(ray)
+    }
     /// The beam of `instances` along the unit direction `w`.
     pub fn new(instances: &Instances, w: Vec3) -> Beam {
         let corners: Vec<[Vec3; 8]> = instances
@@ -251,6 +255,17 @@ impl Beam {
         self.0.visit(ray, t_max, |i, t_max| {
             f(i, &instances.get(i).local_ray(ray), t_max)
         });
+    }
+
+    /// Calls `f(i)` for every instance whose world box `ray` may meet, `ray` running along
+    /// the beam's direction ([`Beam::carries`]) to infinity, until `f` returns false.
+    pub fn visit_along(&self, ray: &Ray, mut f: impl FnMut(u32) -> bool) {
+        debug_assert!(self.carries(ray));
+        self.0.visit(
+            ray,
+            f32::INFINITY,
+            |i, _| if f(i) { None } else { Some(0.0) },
+        );
     }
 
     /// Whether any instance has a hit before `t_max` (`hit(i, local ray, t_max)`): a shadow

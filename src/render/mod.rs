@@ -16,6 +16,7 @@ pub mod lod;
 pub mod mesh;
 pub mod scene;
 pub mod shading;
+pub mod sun_depth;
 pub mod sunlight;
 pub mod view;
 pub mod walk;
@@ -27,7 +28,7 @@ pub use film::{Aovs, Film};
 pub use lod::Lod;
 pub use scene::{Ground, Lighting, Look, Placed, Scene, Shading, Sun};
 pub use shading::Radiance;
-pub use walk::March;
+pub use walk::{March, ShadowRays};
 
 #[cfg(test)]
 mod hybrid_tests;

@@ -10,6 +10,7 @@ use crate::import::Mesh;
 use crate::volume::{Occupancy, Texel};
 
 use super::instances::{self, Instances, TreeTransform};
+use super::sun_depth::SunDepth;
 
 /// How a species looks on the rendered day.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -176,6 +177,8 @@ pub struct Scene {
     /// Whether anything shadows the sun. Off, every surface and sample is lit as if nothing
     /// stood between it and the sun, so shading can be measured apart from shadows.
     pub shadows: bool,
+    /// The trees' optical depth towards the sun, per level, built as shadow rays need it.
+    pub sun_depth: SunDepth,
 }
 
 impl Scene {
@@ -224,6 +227,7 @@ impl Scene {
             .collect();
         let cells: Vec<f32> = texels.iter().map(|t| t.levels[0].cell as f32).collect();
         let instances = Instances::new(instances, model_boxes, &cells);
+        let sun_depth = SunDepth::new(&instances, &looks, &texels);
         Scene {
             origin,
             texels,
@@ -237,7 +241,14 @@ impl Scene {
             shading,
             sky,
             shadows: true,
+            sun_depth,
         }
+    }
+
+    /// The texture instance `i` is drawn from.
+    #[inline]
+    pub fn texel_of(&self, i: u32) -> &Texel {
+        &self.texels[self.looks[self.instances.get(i).look as usize].texel]
     }
 
     /// The scene drawn from the polygon models the texels were baked from: `meshes[k]` is

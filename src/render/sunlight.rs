@@ -8,7 +8,7 @@ use super::lod::Draw;
 use super::mesh;
 use super::scene::Scene;
 use super::shading::sun_radiance;
-use super::walk::{Active, March};
+use super::walk::{Active, March, ShadowRays, level_for};
 use crate::geom::Ray;
 use crate::rng::{self, purpose};
 
@@ -58,21 +58,47 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
         return 0.0;
     }
     let opaque = -march.cutoff.ln();
+    // The cached depths run from a point to beyond the tree, towards the sun the scene was
+    // built for: any other ray is marched.
+    let cached = march.shadows == ShadowRays::Cached
+        && t_max == f32::INFINITY
+        && scene.sun_beam.carries(&ray);
     let lod_bias = march.lod_bias + march.shadow_lod;
     let mut depth = 0.0f32;
     let mesh_key = rng::mix64(key ^ purpose::MESH_SHADOW);
+    // A tree drawn from its model for this sample stops the light if the ray hits it.
+    let model_blocks = |i: u32, local: &Ray| mesh::blocks(scene, i, local, t_max, mesh_key);
+    if cached {
+        scene.sun_beam.visit_along(&ray, |i| {
+            if !draw.texel(scene, i) {
+                if model_blocks(i, &scene.instances.get(i).local_ray(&ray)) {
+                    depth = f32::INFINITY;
+                }
+            } else {
+                let (level, factor) = match own.iter().find(|o| o.instance == i) {
+                    Some(o) => (o.level, o.factor),
+                    None => (level_for(scene, i, footprint, lod_bias), 1.0),
+                };
+                depth += factor * scene.sun_depth.depth(scene, i, level, &ray);
+            }
+            // Stops the traversal once nothing further can make the light visible.
+            depth <= opaque
+        });
+        return if depth > opaque { 0.0 } else { (-depth).exp() };
+    }
     scene
         .sun_beam
         .visit(&scene.instances, &ray, t_max, |i, local, _| {
             if !draw.texel(scene, i) {
-                if mesh::blocks(scene, i, local, t_max, mesh_key) {
+                if model_blocks(i, local) {
                     depth = f32::INFINITY;
                     return Some(0.0);
                 }
                 return None;
             }
+            let own = own.iter().find(|o| o.instance == i);
             let (enter, exit) = scene.instances.local_interval(i, local, t_max)?;
-            let (a, factor) = match own.iter().find(|o| o.instance == i) {
+            let (a, factor) = match own {
                 Some(o) => (Active::at_level(scene, i, local, exit, o.level), o.factor),
                 None => (Active::new(scene, i, local, exit, footprint, lod_bias), 1.0),
             };

@@ -5,8 +5,8 @@ use glam::{DVec3, Vec3, Vec4};
 use super::integrate::radiance;
 use super::lod::Draw;
 use super::scene::{Lighting, Look, Placed, Scene, Shading, Sun};
-use super::sunlight::{Caster, transmittance};
-use super::walk::March;
+use super::sunlight::{Caster, OwnTree, transmittance};
+use super::walk::{March, ShadowRays};
 use super::{Camera, RenderSettings, render};
 use crate::bake::{mip_chain, sobel};
 use crate::geom::Ray;
@@ -1023,4 +1023,121 @@ fn the_canopy_layer_averages_the_samples() {
     let (canopy, alpha) = (film.canopy[0], film.rgba[0][3]);
     assert!((canopy - 0.5).abs() < 0.1, "{canopy}");
     assert!((canopy - alpha).abs() < 1e-6, "{canopy} vs {alpha}");
+}
+
+/// Shadow rays read from the cached depths (`render::sun_depth`) what an exact march finds:
+/// three overlapping trees of a lopsided cloud, turned and scaled, lit from the side; from
+/// points in and around them, with and without their own trees' self-shadowing, at the finest
+/// level and one coarser. The exact march here takes 20 samples per cell, so its own noise
+/// (and the bias exp(-depth) takes from it) is far below the tolerance.
+#[test]
+fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
+    let n = 16;
+    let mut l = Level::empty([n; 3], 0.25);
+    for i in 0..l.cell_count() {
+        let c = [i % n, (i / n) % n, i / (n * n)].map(|v| (v as f32 + 0.5) / n as f32);
+        let lump = |x: f32, y: f32, z: f32, r: f32| {
+            let d = ((c[0] - x).powi(2) + (c[1] - y).powi(2) + (c[2] - z).powi(2)).sqrt();
+            (1.0 - d / r).max(0.0)
+        };
+        l.density[1][i] = 3.0 * lump(0.4, 0.55, 0.5, 0.45) + 8.0 * lump(0.7, 0.3, 0.3, 0.2);
+        l.density[0][i] = 6.0 * lump(0.5, 0.3, 0.5, 0.15);
+    }
+    let mut texel = uniform_texel([n; 3], 0.25, DVec3::new(-2.0, 0.0, -2.0), 0.0, [0.5; 3]);
+    texel.levels = mip_chain(l, 1.0);
+    let trees = [
+        (DVec3::ZERO, 0.4, 1.0),
+        (DVec3::new(1.5, 0.3, -0.8), 2.2, 1.3),
+        (DVec3::new(-0.6, -0.2, 1.2), 5.1, 0.8),
+    ];
+    let placed: Vec<Placed> = trees
+        .iter()
+        .map(|&(position, rotation, scale)| Placed {
+            look: 0,
+            position,
+            rotation,
+            scale,
+        })
+        .collect();
+    let scene = Scene::new(
+        DVec3::new(0.0, 1.0, 0.0),
+        vec![texel],
+        vec![Look {
+            foliage: 0.8,
+            ..look()
+        }],
+        &placed,
+        None,
+        Lighting {
+            sun: Sun::from_angles(250.0, 35.0, std::f32::consts::PI),
+            shading: PLAIN,
+            sky: None,
+        },
+    );
+    let mut s = rng::Stream::new(11, 0);
+    let mut worst = 0.0f32;
+    let mut bias = [0.0f64; 2];
+    for k in 0..400u64 {
+        let origin = Vec3::new(
+            s.unit() as f32 * 5.0 - 2.5,
+            s.unit() as f32 * 4.0 - 1.5,
+            s.unit() as f32 * 5.0 - 2.5,
+        );
+        let ray = Ray {
+            origin,
+            dir: scene.sun.direction,
+        };
+        // Every other point lies in its trees as a leaf would, with their self-shadowing.
+        let inside: Vec<OwnTree> = (0..3u32)
+            .filter(|&i| {
+                let local = scene.instances.get(i).to_model(origin);
+                k % 2 == 0
+                    && scene
+                        .instances
+                        .local_interval(
+                            i,
+                            &Ray {
+                                origin: local,
+                                dir: Vec3::Y,
+                            },
+                            0.0,
+                        )
+                        .is_some()
+            })
+            .map(|i| OwnTree {
+                instance: i,
+                level: (k % 2) as usize,
+                factor: 0.6,
+            })
+            .collect();
+        let footprint = if k % 4 < 2 { 0.0 } else { 0.6 };
+        let t = |shadows, step| {
+            transmittance(
+                &scene,
+                ray,
+                f32::INFINITY,
+                &March {
+                    step,
+                    cutoff: 0.0,
+                    shadows,
+                    ..March::default()
+                },
+                &Caster {
+                    footprint,
+                    key: k,
+                    own: &inside,
+                    draw: &Draw::Texel,
+                },
+            )
+        };
+        let (cached, exact) = (t(ShadowRays::Cached, 1.0), t(ShadowRays::Exact, 0.05));
+        bias[(k % 4 / 2) as usize] += f64::from(exact.max(1e-6).ln() - cached.max(1e-6).ln());
+        worst = worst.max((cached - exact).abs());
+    }
+    // Per footprint (the other trees read at level 1, at level 2), the mean difference in
+    // optical depth.
+    let bias = bias.map(|b| b / 200.0);
+    println!("worst difference in transmittance {worst}, mean in depth {bias:?}");
+    assert!(worst < 0.03, "worst difference in transmittance {worst}");
+    assert!(bias.iter().all(|b| b.abs() < 0.005), "{bias:?}");
 }

@@ -32,6 +32,8 @@ pub struct March {
     /// opacity) is below this casts its shadow ray with probability share / this, and counts
     /// it that many times more. Unbiased; 0 casts every shadow ray.
     pub shadow_share: f32,
+    /// How shadow rays cross the trees' textures.
+    pub shadows: ShadowRays,
     /// Russian roulette on view rays: once the transmittance falls below this, a ray goes on
     /// past each segment with probability transmittance / this, carrying this. Unbiased; 0
     /// marches every ray to the cut-off.
@@ -46,9 +48,29 @@ impl Default for March {
             lod_bias: 0.0,
             shadow_lod: 1.0,
             shadow_share: 0.05,
+            shadows: ShadowRays::Exact,
             view_share: 0.05,
         }
     }
+}
+
+/// How a shadow ray finds its optical depth through the trees' textures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowRays {
+    /// One lookup per tree in its grid of depths towards the sun (`render::sun_depth`).
+    Cached,
+    /// A jittered march through every tree, as a view ray marches: unbiased, for references.
+    Exact,
+}
+
+/// The mip level of instance `i` whose cells match a footprint of `footprint` metres, moved
+/// by `lod_bias` levels.
+pub(super) fn level_for(scene: &Scene, i: u32, footprint: f32, lod_bias: f32) -> usize {
+    let inst: &TreeTransform = scene.instances.get(i);
+    let texel = scene.texel_of(i);
+    let cell0 = texel.levels[0].cell as f32;
+    let wanted = (footprint / inst.scale / cell0).max(1.0).log2() + lod_bias;
+    (wanted.max(0.0) as usize).min(texel.levels.len() - 1)
 }
 
 /// An instance the ray is inside of, with its ray in the texture's cell coordinates.
@@ -83,12 +105,13 @@ impl Active {
         footprint: f32,
         lod_bias: f32,
     ) -> Active {
-        let inst: &TreeTransform = scene.instances.get(i);
-        let texel = &scene.texels[scene.looks[inst.look as usize].texel];
-        let cell0 = texel.levels[0].cell as f32;
-        let wanted = (footprint / inst.scale / cell0).max(1.0).log2() + lod_bias;
-        let level = (wanted.max(0.0) as usize).min(texel.levels.len() - 1);
-        Active::at_level(scene, i, local, exit, level)
+        Active::at_level(
+            scene,
+            i,
+            local,
+            exit,
+            level_for(scene, i, footprint, lod_bias),
+        )
     }
 
     /// Instance `i` as a ray meets it (`local`, in its model space), read at mip level `level`.
