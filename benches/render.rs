@@ -9,7 +9,10 @@
 //!   volume samples per pixel;
 //! - the demo frame at 1280 x 720, 16 spp, mesh method: seconds and samples per second;
 //! - the hybrid method against both pure methods on the demo frame and the near view, 1 spp
-//!   (no baseline: older builds have no hybrid method).
+//!   (no baseline: older builds have no hybrid method);
+//! - shadow rays from the sun-depth cache (`--shadows cached`) against exact ones, the demo
+//!   frame at 1920 x 1080 and 640 x 360, 1 spp: seconds, grids built, peak memory (no
+//!   baseline: older builds have no cache).
 //!
 //! Every figure is the median of 3 whole `texel render` runs. With `TEXEL_BASELINE=path` (the
 //! `texel` binary of another build, e.g. the previous commit's) each run of this build is
@@ -35,6 +38,9 @@ struct Run {
     seconds: f64,
     samples_per_pixel: f64,
     shadow_rays_per_pixel: f64,
+    /// Sun-depth grids built, and the process's peak memory (MiB).
+    grids: f64,
+    peak_mib: f64,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -50,6 +56,12 @@ fn render(bench: &Bench, texel: &Path, args: &[&str]) -> Run {
         seconds,
         samples_per_pixel: number_before(&err, "volume samples").unwrap_or(0.0),
         shadow_rays_per_pixel: number_before(&err, "shadow rays per pixel").unwrap_or(0.0),
+        grids: number_before(&err, "sun-depth grids").unwrap_or(0.0),
+        peak_mib: err
+            .split("peak memory ")
+            .nth(1)
+            .and_then(|t| t.split_whitespace().next()?.parse().ok())
+            .unwrap_or(0.0),
     }
 }
 
@@ -66,6 +78,8 @@ fn measure(bench: &Bench, baseline: Option<&Path>, args: &[&str]) -> (Run, Optio
         seconds: median(runs.iter().map(|r| r.seconds).collect()),
         samples_per_pixel: median(runs.iter().map(|r| r.samples_per_pixel).collect()),
         shadow_rays_per_pixel: median(runs.iter().map(|r| r.shadow_rays_per_pixel).collect()),
+        grids: median(runs.iter().map(|r| r.grids).collect()),
+        peak_mib: median(runs.iter().map(|r| r.peak_mib).collect()),
     };
     (med(&a), (!b.is_empty()).then(|| med(&b)))
 }
@@ -211,6 +225,34 @@ fn main() {
         16.0 * 1280.0 * 720.0 / a.seconds,
         versus(a.seconds, b.map(|b| b.seconds))
     );
+
+    // The sun-depth cache pays only where enough shadow rays read each grid: both sizes.
+    for (w, h) in [("1920", "1080"), ("640", "360")] {
+        let frame = [
+            "forest.instances",
+            "-o",
+            "shadows.exr",
+            "--width",
+            w,
+            "--height",
+            h,
+        ];
+        let time = |shadows: &str| {
+            let mut args = frame.to_vec();
+            args.extend_from_slice(&["--shadows", shadows]);
+            measure(&bench, None, &args).0
+        };
+        let (exact, cached) = (time("exact"), time("cached"));
+        println!(
+            "demo frame {w}x{h}, 1 spp, texel: --shadows cached {:.2} s ({:.0} grids, peak {:.0} MiB), exact {:.2} s (peak {:.0} MiB): {:.2}x",
+            cached.seconds,
+            cached.grids,
+            cached.peak_mib,
+            exact.seconds,
+            exact.peak_mib,
+            exact.seconds / cached.seconds
+        );
+    }
 
     for (name, frame) in [
         ("demo frame 1920x1080", &demo[..]),

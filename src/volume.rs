@@ -91,6 +91,15 @@ pub struct Level {
     pub wood_weight: f32,
 }
 
+/// Linear interpolation's two cells and weight along one axis of `n` cells (centres at
+/// i + 0.5) at `v`, clamped to the edge: `(i0, i1, weight of i1)`.
+#[inline(always)]
+pub fn clamped_axis(v: f32, n: usize) -> (usize, usize, f32) {
+    let x = (v - 0.5).clamp(0.0, (n - 1) as f32);
+    let i = (x as usize).min(n - 1);
+    (i, (i + 1).min(n - 1), x - i as f32)
+}
+
 impl Level {
     pub fn empty(dims: [usize; 3], cell: f64) -> Level {
         let n = dims.iter().product();
@@ -156,14 +165,9 @@ impl Level {
         if outside || !c.is_finite() {
             return None;
         }
-        let axis = |v: f32, n: usize| -> (usize, usize, f32) {
-            let x = (v - 0.5).clamp(0.0, (n - 1) as f32);
-            let i = (x as usize).min(n - 1);
-            (i, (i + 1).min(n - 1), x - i as f32)
-        };
-        let (x0, x1, fx) = axis(c.x, d[0]);
-        let (y0, y1, fy) = axis(c.y, d[1]);
-        let (z0, z1, fz) = axis(c.z, d[2]);
+        let (x0, x1, fx) = clamped_axis(c.x, d[0]);
+        let (y0, y1, fy) = clamped_axis(c.y, d[1]);
+        let (z0, z1, fz) = clamped_axis(c.z, d[2]);
         let (sx, sxy) = (d[0], d[0] * d[1]);
         let idx = [
             x0 + sx * y0 + sxy * z0,

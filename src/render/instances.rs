@@ -223,10 +223,6 @@ impl Instances {
 pub struct Beam(crate::geom::Beam);
 
 impl Beam {
-    /// Whether `ray` runs along the beam's direction.
-    pub fn carries(&self, ray: &Ray) -> bool {
-        self.0.carries(ray)
-    }
     /// The beam of `instances` along the unit direction `w`.
     pub fn new(instances: &Instances, w: Vec3) -> Beam {
         let corners: Vec<[Vec3; 8]> = instances
@@ -255,6 +251,11 @@ impl Beam {
         self.0.visit(ray, t_max, |i, t_max| {
             f(i, &instances.get(i).local_ray(ray), t_max)
         });
+    }
+
+    /// Whether `ray` runs along the beam's direction.
+    pub fn carries(&self, ray: &Ray) -> bool {
+        self.0.carries(ray)
     }
 
     /// Calls `f(i)` for every instance whose world box `ray` may meet, `ray` running along

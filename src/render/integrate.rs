@@ -273,8 +273,7 @@ fn scatter(
                 if foliage_scatters {
                     let cos_g = (-dir).dot(sun.direction);
                     for a in active.iter().take(MAX_OWN) {
-                        let inst = scene.instances.get(a.instance);
-                        let texel = &scene.texels[scene.looks[inst.look as usize].texel];
+                        let texel = scene.texel_of(a.instance);
                         own[n] = OwnTree {
                             instance: a.instance,
                             level: a.level,

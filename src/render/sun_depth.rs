@@ -29,7 +29,7 @@ use glam::Vec3;
 use super::instances::{Instances, TreeTransform};
 use super::scene::{Look, Scene};
 use crate::geom::Ray;
-use crate::volume::{Level, Texel};
+use crate::volume::{Level, Texel, clamped_axis};
 
 /// Turns about +Y a tree's shadow is drawn at on its finest level: its own rotation, rounded
 /// to one of these (half as many on each coarser level). Rounding to a 256th of a turn moves
@@ -45,7 +45,7 @@ pub struct SunDepth {
     /// Per instance, the turn its shadow is drawn at.
     turns: Vec<u8>,
     /// Per turn, its cosine and sine.
-    turn: Vec<[f32; 2]>,
+    cos_sin: Vec<[f32; 2]>,
 }
 
 impl SunDepth {
@@ -62,7 +62,7 @@ impl SunDepth {
                 .collect(),
             levels,
             turns: (0..instances.len() as u32).map(|i| turn(i) as u8).collect(),
-            turn: (0..TURNS)
+            cos_sin: (0..TURNS)
                 .map(|t| {
                     let (sin, cos) = (t as f32 * std::f32::consts::TAU / TURNS as f32).sin_cos();
                     [cos, sin]
@@ -82,7 +82,7 @@ impl SunDepth {
         let level_turns = (TURNS >> level).max(1);
         let shift = level.min(8);
         let turn = ((self.turns[i as usize] as usize + (1 << shift >> 1)) >> shift) % level_turns;
-        let [cos, sin] = self.turn[(turn << shift) % TURNS];
+        let [cos, sin] = self.cos_sin[(turn << shift) % TURNS];
         let turned = TreeTransform { cos, sin, ..*inst };
         let look = inst.look as usize;
         let grid = self.grids[(look * self.levels + level) * TURNS + turn].get_or_init(|| {
@@ -246,13 +246,8 @@ impl Grid {
             p[b] - self.shift[1] * z - self.lo[1],
             z,
         ];
-        let axis = |v: f32, n: usize| -> (usize, usize, f32) {
-            let v = (v - 0.5).clamp(0.0, (n - 1) as f32);
-            let i = (v as usize).min(n - 1);
-            (i, (i + 1).min(n - 1), v - i as f32)
-        };
         let [(x0, x1, fx), (y0, y1, fy), (z0, z1, fz)] =
-            std::array::from_fn(|i| axis(x[i], self.dims[i]));
+            std::array::from_fn(|i| clamped_axis(x[i], self.dims[i]));
         let (sx, sxy) = (self.dims[0], self.dims[0] * self.dims[1]);
         let d = &self.depth;
         let layer = |z: usize| {
@@ -399,6 +394,38 @@ mod tests {
             assert!(
                 worst < 0.04 * scale && bias.abs() < 0.002 * scale,
                 "sun {sun}: worst {worst}, bias {bias} of a depth of {scale} through the centre"
+            );
+        }
+    }
+
+    /// A coarse level (4 cells a side, 3.5 m cells, densities changing tenfold from cell to
+    /// cell, dense to its faces, as the fixture broadleaf's level 3 is): read between columns
+    /// a cell apart its depths came out 30% low on average; with the grid's finer columns the
+    /// mean over the grid is within 2% of a fine march, and no point is off by more than a
+    /// tenth of the deepest depth, for two suns.
+    #[test]
+    fn a_coarse_level_reads_its_depths_from_finer_columns() {
+        let mut level = Level::empty([4, 4, 4], 3.5);
+        let mut s = Stream::new(17, 0);
+        for d in level.density[1].iter_mut() {
+            let u = s.unit() as f32;
+            *d = 0.16 * u * u * u;
+        }
+        for sun in [Vec3::new(-0.5, 0.6, 0.62), Vec3::new(0.7, 0.45, -0.2)] {
+            let sun = sun.normalize();
+            let grid = Grid::new(&level, Vec3::ZERO, 1.0, 1.0, sun);
+            let (mut want, mut got, mut worst, mut deepest) = (0.0f64, 0.0f64, 0.0f32, 0.0f32);
+            for _ in 0..2000 {
+                let c = Vec3::new(s.unit() as f32, s.unit() as f32, s.unit() as f32) * 4.0;
+                let (w, g) = (marched(&level, 1.0, sun, c), grid.depth_from(c * 3.5));
+                want += f64::from(w);
+                got += f64::from(g);
+                worst = worst.max((g - w).abs());
+                deepest = deepest.max(w);
+            }
+            assert!(
+                (got / want - 1.0).abs() < 0.02 && worst < 0.1 * deepest,
+                "sun {sun}: mean {got} against {want}, worst {worst} of {deepest}"
             );
         }
     }

@@ -117,7 +117,7 @@ impl Active {
     /// Instance `i` as a ray meets it (`local`, in its model space), read at mip level `level`.
     pub(super) fn at_level(scene: &Scene, i: u32, local: &Ray, exit: f32, level: usize) -> Active {
         let inst: &TreeTransform = scene.instances.get(i);
-        let texel = &scene.texels[scene.looks[inst.look as usize].texel];
+        let texel = scene.texel_of(i);
         let cell = texel.levels[level].cell as f32;
         let origin = texel.origin().as_vec3();
         let dir = local.dir;
