@@ -411,11 +411,11 @@ pub struct RenderArgs {
     /// budget); not a look.
     #[arg(long)]
     pub no_shadows: bool,
-    /// How shadow rays cross the trees' textures: `exact`, a jittered march through each
-    /// (unbiased); `cached`, one lookup per tree in a grid of optical depths towards the sun,
-    /// built per species, level and turn of tree as the frame first needs it (no noise,
-    /// interpolated between columns; see README).
-    #[arg(long, value_enum, default_value_t = ShadowsArg::Exact, value_name = "HOW")]
+    /// How shadow rays cross the trees' textures: `cached`, one lookup per tree in a grid of
+    /// optical depths towards the sun, built per species, level and turn of tree as the frame
+    /// first needs it (no noise, interpolated between columns; see README); `exact`, a
+    /// jittered march through each (unbiased, noisy; for references).
+    #[arg(long, value_enum, default_value_t = ShadowsArg::Cached, value_name = "HOW")]
     pub shadows: ShadowsArg,
     /// Segment length in texture cells (smaller: slower, less noise).
     #[arg(long, default_value_t = 1.0, value_parser = step)]

@@ -10,6 +10,11 @@
 //!   M_unshadowed)`: self-shadowing inside crowns, shadow mip levels, shadows on the ground;
 //! - **noise**: the spread over seeds, `rms(T_seed0 - T_seed1) / sqrt 2`.
 //!
+//! Beside them, the total again with exact shadow rays (`--shadows exact`, a jittered march
+//! per tree, where the default reads the sun-depth cache): what the cache adds to the error,
+//! or takes from it (it has no noise of its own, nor the brightening exp(-depth) takes from a
+//! noisy depth).
+//!
 //! The parts are RMSEs over the frame, so they do not add up to the total; each bounds what
 //! removing its cause alone could gain. The bias on tree pixels (where the reference's canopy
 //! is above one half) is given as mean ratios per channel, as `texel compare --mask REF.exr
@@ -33,6 +38,8 @@ pub const BUDGET_SPP: u32 = 16;
 pub struct Budget {
     pub view: &'static str,
     pub total: f64,
+    /// The total with exact shadow rays.
+    pub total_exact_shadows: f64,
     pub coverage: f64,
     pub shading: f64,
     pub shadows: f64,
@@ -83,6 +90,7 @@ impl Report {
         let t = texel("full", &[]);
         let t_seed = texel("seed1", &["--seed", "1"]);
         let t_unshadowed = texel("unshadowed", &["--no-shadows"]);
+        let t_exact = texel("exact-shadows", &["--shadows", "exact"]);
         let (m, mn) = (read(&reference), read(&unshadowed_reference));
         let (tf, ts, tn) = (read(&t), read(&t_seed), read(&t_unshadowed));
         let n = m.pixels.len();
@@ -96,6 +104,7 @@ impl Report {
         Budget {
             view: view.name,
             total: compare(&tf, &m, |_| true).rgb.rmse,
+            total_exact_shadows: compare(&read(&t_exact), &m, |_| true).rgb.rmse,
             coverage: (canopy_t
                 .iter()
                 .zip(&canopy_m)
@@ -138,34 +147,21 @@ pub fn write(dir: &Path, budgets: &[Budget]) -> String {
         "## Error budget (texel method, {BUDGET_SPP} spp, against the mesh reference)\n\n\
          Each part is the RMSE with the rest switched off (see `examples/report/budget.rs`); \
          coverage is in alpha, the rest in radiance. Ratios: texel over mesh mean radiance on \
-         tree pixels (reference canopy above one half, decided in blocks of 4 x 4 pixels).\n\n\
-         | view | total | coverage (alpha) | canopy ratio | shading, unshadowed | shadows | noise | ratio R / G / B on trees |\n\
-         |---|---:|---:|---:|---:|---:|---:|---|\n"
+         tree pixels (reference canopy above one half, decided in blocks of 4 x 4 pixels). \
+         The total with exact shadow rays (`--shadows exact`) in place of the sun-depth cache, \
+         and what the cache changes, are the last two columns.\n\n\
+         | view | total | coverage (alpha) | canopy ratio | shading, unshadowed | shadows | noise | ratio R / G / B on trees | total, exact shadows | cache's change |\n\
+         |---|---:|---:|---:|---:|---:|---:|---|---:|---:|\n"
     );
     let mut csv = String::from(
-        "view,total,coverage,shading,shadows,noise,ratio_r,ratio_g,ratio_b,tree_pixels\n",
+        "view,total,coverage,canopy_ratio,shading,shadows,noise,ratio_r,ratio_g,ratio_b,tree_pixels,total_exact_shadows\n",
     );
     let ratio = |r: Option<f64>| r.map_or("-".to_string(), |r| format!("{r:.3}"));
     for b in budgets {
         let p = parts(b);
         writeln!(
             md,
-            "| {} | {:.5} | {:.5} | {:.3} | {:.5} | {:.5} | {:.5} | {} / {} / {} |",
-            b.view,
-            p[0].1,
-            p[1].1,
-            b.canopy_ratio,
-            p[2].1,
-            p[3].1,
-            p[4].1,
-            ratio(b.ratio[0]),
-            ratio(b.ratio[1]),
-            ratio(b.ratio[2])
-        )
-        .unwrap();
-        writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{},{},{}",
+            "| {} | {:.5} | {:.5} | {:.3} | {:.5} | {:.5} | {:.5} | {} / {} / {} | {:.5} | {:+.1}% |",
             b.view,
             p[0].1,
             p[1].1,
@@ -176,7 +172,25 @@ pub fn write(dir: &Path, budgets: &[Budget]) -> String {
             ratio(b.ratio[0]),
             ratio(b.ratio[1]),
             ratio(b.ratio[2]),
-            b.tree_pixels
+            b.total_exact_shadows,
+            100.0 * (b.total / b.total_exact_shadows - 1.0)
+        )
+        .unwrap();
+        writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            b.view,
+            p[0].1,
+            p[1].1,
+            b.canopy_ratio,
+            p[2].1,
+            p[3].1,
+            p[4].1,
+            ratio(b.ratio[0]),
+            ratio(b.ratio[1]),
+            ratio(b.ratio[2]),
+            b.tree_pixels,
+            b.total_exact_shadows
         )
         .unwrap();
     }

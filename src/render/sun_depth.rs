@@ -14,7 +14,9 @@
 //! its finest level, half as many per coarser level (a shift of at most a sixth of a cell).
 //! Grids are built on first use, so a frame builds only what its shadow rays reach, and
 //! the same whichever thread builds them: images do not depend on the thread count. Their
-//! number is bounded by species x levels x turns, not by the number of trees.
+//! number is bounded by species x levels x turns, not by the number of trees, and their
+//! memory by [`MEMORY_BOUND`]: with many species the turns are fewer. Species told apart
+//! only by colour share grids.
 //!
 //! What it changes against `--shadows exact` (a jittered march, unbiased, noisy): no noise in
 //! the depth, and with it none of the brightening exp(-depth) takes from a noisy depth; a
@@ -37,12 +39,26 @@ use crate::volume::{Level, Texel, clamped_axis};
 /// fixtures' 32-cell textures.
 const TURNS: usize = 256;
 
+/// What the grids may take at most, whatever the frame asks for: with many species, each
+/// level's turns are halved (all levels alike) until every grid they allow, at
+/// [`GRID_BYTES`] each, would fit. The fixtures' two casters keep all 256 turns.
+const MEMORY_BOUND: usize = 512 << 20;
+
+/// A grid's bytes, as planned for [`MEMORY_BOUND`]: about 33 layers of 40 x 40 columns
+/// (the fixtures' grids average 200 KiB).
+const GRID_BYTES: usize = 256 << 10;
+
 /// The depth grids of every look, level and turn, built as shadow rays first reach them.
 pub struct SunDepth {
-    /// Per look, level and turn (`(look * levels + level) * TURNS + turn`), its grid.
+    /// Per caster, level and turn (`(caster * levels + level) * TURNS + turn`), its grid.
     grids: Vec<OnceLock<Grid>>,
+    /// Per look, its caster: looks of one texture and foliage weight (species told apart
+    /// only by colour) cast the same shadow and share grids.
+    casters: Vec<usize>,
     levels: usize,
-    /// Per instance, the turn its shadow is drawn at.
+    /// How many times every level's turns are halved to keep within [`MEMORY_BOUND`].
+    coarsen: usize,
+    /// Per instance, the turn its shadow is drawn at (of [`TURNS`]).
     turns: Vec<u8>,
     /// Per turn, its cosine and sine.
     cos_sin: Vec<[f32; 2]>,
@@ -56,11 +72,25 @@ impl SunDepth {
             let a = t.sin.atan2(t.cos).rem_euclid(std::f32::consts::TAU);
             (a / std::f32::consts::TAU * TURNS as f32).round() as usize % TURNS
         };
+        let mut kinds: Vec<(usize, u32)> = Vec::new();
+        let casters = looks
+            .iter()
+            .map(|l| {
+                let kind = (l.texel, l.foliage.to_bits());
+                kinds.iter().position(|&k| k == kind).unwrap_or_else(|| {
+                    kinds.push(kind);
+                    kinds.len() - 1
+                })
+            })
+            .collect();
+        let coarsen = coarsening(kinds.len(), levels);
         SunDepth {
-            grids: (0..looks.len() * levels * TURNS)
+            grids: (0..kinds.len() * levels * TURNS)
                 .map(|_| OnceLock::new())
                 .collect(),
+            casters,
             levels,
+            coarsen,
             turns: (0..instances.len() as u32).map(|i| turn(i) as u8).collect(),
             cos_sin: (0..TURNS)
                 .map(|t| {
@@ -79,20 +109,27 @@ impl SunDepth {
         let inst = scene.instances.get(i);
         // Coarser levels' cells are larger: half as many turns per level keeps the largest
         // shift a turn makes to the same part of a cell.
-        let level_turns = (TURNS >> level).max(1);
-        let shift = level.min(8);
+        let shift = (level + self.coarsen).min(8);
+        let level_turns = (TURNS >> shift).max(1);
         let turn = ((self.turns[i as usize] as usize + (1 << shift >> 1)) >> shift) % level_turns;
         let [cos, sin] = self.cos_sin[(turn << shift) % TURNS];
         let turned = TreeTransform { cos, sin, ..*inst };
         let look = inst.look as usize;
-        let grid = self.grids[(look * self.levels + level) * TURNS + turn].get_or_init(|| {
+        let caster = self.casters[look];
+        let grid = self.grids[(caster * self.levels + level) * TURNS + turn].get_or_init(|| {
             let texel = &scene.texels[scene.looks[look].texel];
             Grid::new(
                 &texel.levels[level],
                 texel.origin().as_vec3(),
                 texel.info.extinction_scale as f32,
                 scene.looks[look].foliage,
-                turned.dir_to_model(ray.dir).normalize(),
+                // The turn's alone: with the tree's scale in it, the grid's bits would depend
+                // on which tree asked first, and so the image on the thread count.
+                TreeTransform {
+                    scale: 1.0,
+                    ..turned
+                }
+                .dir_to_model(ray.dir),
             )
         });
         grid.depth_from(turned.to_model(ray.origin))
@@ -103,6 +140,16 @@ impl SunDepth {
         let built = self.grids.iter().filter_map(OnceLock::get);
         built.fold((0, 0), |(n, bytes), g| (n + 1, bytes + g.bytes()))
     }
+}
+
+/// How many times every level's turns are halved for `casters` kinds of tree of `levels`
+/// levels: as few as keep all the grids there could be within [`MEMORY_BOUND`].
+fn coarsening(casters: usize, levels: usize) -> usize {
+    let planned = |coarsen: usize| {
+        let turns: usize = (0..levels).map(|l| (TURNS >> (l + coarsen)).max(1)).sum();
+        casters * turns * GRID_BYTES
+    };
+    (0..8).find(|&c| planned(c) <= MEMORY_BOUND).unwrap_or(8)
 }
 
 /// Cells of a depth grid per cell of a level of `dims` cells: at least 32 across its
@@ -152,11 +199,6 @@ impl Grid {
     /// layer of its own, the distance to the grid's face.
     pub(super) fn new(level: &Level, origin: Vec3, scale: f32, foliage: f32, sun: Vec3) -> Grid {
         let sigma_scale = scale * level.directional_factor(sun);
-        // The trilinear field (as a march reads it) at a point in the level's cells.
-        let sigma = |c: Vec3| {
-            let d = level.density_at(c);
-            sigma_scale * (d[0] + foliage * d[1])
-        };
         let n = level.dims;
         let fine = fineness(n);
         let k = (0..3)
@@ -174,37 +216,44 @@ impl Grid {
             lo[x] = -m.max(0.0);
             dims[x] = (n[axis] as f32 * fine + m.abs()).ceil() as usize;
         }
-        // Column `q` (fine cells across from column 0's start) where it crosses the plane `z`
-        // along k, in the level's cells.
-        let point = |q: [f32; 2], z: f32| {
-            let mut c = Vec3::ZERO;
-            c[a] = (q[0] + shift[0] * z) / fine;
-            c[b] = (q[1] + shift[1] * z) / fine;
-            c[k] = z / fine;
-            c
-        };
+        // Every layer lies in one plane across k, where the trilinear field is bilinear in a
+        // slice of the level interpolated along k: one slice per layer, and each column's
+        // point reads 4 values of one channel where a trilinear lookup reads 8 of two.
+        let mut slice = Slice::new(level, [a, b, k], sigma_scale, foliage);
+        // The layers from the sun's side in, and after them the face the sun's rays enter by
+        // (away from the sun).
         let layers: Vec<usize> = if sun[k] > 0.0 {
             (0..dims[2]).rev().collect()
         } else {
             (0..dims[2]).collect()
         };
-        // The layers, and after them the face the sun's rays enter by (away from the sun).
-        let mut depth = vec![0.0f32; dims[0] * dims[1] * (dims[2] + 1)];
         let face = if sun[k] > 0.0 { 0.0 } else { nk };
-        for ib in 0..dims[1] {
-            for ia in 0..dims[0] {
-                let q = [lo[0] + ia as f32 + 0.5, lo[1] + ib as f32 + 0.5];
-                let (mut sum, mut before) = (0.0f32, 0.0f32);
-                for (l, &j) in layers.iter().enumerate() {
-                    let s = sigma(point(q, j as f32 + 0.5));
-                    sum += if l == 0 { s } else { s + before } * 0.5 * step;
-                    before = s;
-                    depth[ia + dims[0] * (ib + dims[1] * j)] = sum;
+        let columns = dims[0] * dims[1];
+        let mut depth = vec![0.0f32; columns * (dims[2] + 1)];
+        let (mut sum, mut before) = (vec![0.0f32; columns], vec![0.0f32; columns]);
+        let mut sweep = |z: f32, layer: usize, weight: [f32; 2]| {
+            slice.fill(z / fine);
+            // Column `(ia, ib)` crosses the plane `z` at `q + shift z` fine cells across.
+            let across = [0, 1].map(|x| lo[x] + 0.5 + shift[x] * z);
+            for ib in 0..dims[1] {
+                let v = (across[1] + ib as f32) / fine;
+                for ia in 0..dims[0] {
+                    let col = ia + dims[0] * ib;
+                    let s = slice.at((across[0] + ia as f32) / fine, v);
+                    sum[col] += (weight[0] * s + weight[1] * before[col]) * step;
+                    before[col] = s;
+                    depth[col + columns * layer] = sum[col];
                 }
-                let s = sigma(point(q, face));
-                depth[ia + dims[0] * (ib + dims[1] * dims[2])] = sum + (s + before) * 0.25 * step;
             }
+        };
+        // The trapezoid rule: the sunward layer adds half a layer of its own (the distance to
+        // the grid's face), each later one the mean of it and the one before, and the face a
+        // quarter of each (half a layer's distance).
+        for (l, &j) in layers.iter().enumerate() {
+            let weight = if l == 0 { [0.5, 0.0] } else { [0.5, 0.5] };
+            sweep(j as f32 + 0.5, j, weight);
         }
+        sweep(face, dims[2], [0.25, 0.25]);
         let per_metre = fine / level.cell as f32;
         let towards = (sun * per_metre).map(|x| if x.abs() < 1e-20 { 1e-20 } else { x });
         Grid {
@@ -282,6 +331,65 @@ impl Grid {
 
     pub(super) fn bytes(&self) -> usize {
         std::mem::size_of_val(&self.depth[..])
+    }
+}
+
+/// The trilinear field of a level's combined extinction in one plane across axis `k`, as a
+/// march reads it: bilinear across `a` and `b` (level cells), clamped to the edge cells
+/// within the grid and 0 outside it.
+struct Slice<'l> {
+    level: &'l Level,
+    axes: [usize; 3],
+    scale: f32,
+    foliage: f32,
+    values: Vec<f32>,
+}
+
+impl<'l> Slice<'l> {
+    fn new(level: &'l Level, axes: [usize; 3], scale: f32, foliage: f32) -> Slice<'l> {
+        let [a, b, _] = axes;
+        Slice {
+            level,
+            axes,
+            scale,
+            foliage,
+            values: vec![0.0; level.dims[a] * level.dims[b]],
+        }
+    }
+
+    /// Interpolates the slice at `z` level cells along `k`.
+    fn fill(&mut self, z: f32) {
+        let [a, b, k] = self.axes;
+        let n = self.level.dims;
+        let (k0, k1, fk) = clamped_axis(z, n[k]);
+        let [wood, foliage] = &self.level.density;
+        let extinction = |ia: usize, ib: usize, ik: usize| {
+            let mut c = [0; 3];
+            (c[a], c[b], c[k]) = (ia, ib, ik);
+            let i = self.level.index(c[0], c[1], c[2]);
+            wood[i] + self.foliage * foliage[i]
+        };
+        for ib in 0..n[b] {
+            for ia in 0..n[a] {
+                let e = extinction(ia, ib, k0) * (1.0 - fk) + extinction(ia, ib, k1) * fk;
+                self.values[ia + n[a] * ib] = self.scale * e;
+            }
+        }
+    }
+
+    /// The field at `(u, v)` level cells across `a` and `b`.
+    #[inline]
+    fn at(&self, u: f32, v: f32) -> f32 {
+        let [a, b, _] = self.axes;
+        let (na, nb) = (self.level.dims[a], self.level.dims[b]);
+        if !(u >= 0.0 && v >= 0.0 && u <= na as f32 && v <= nb as f32) {
+            return 0.0;
+        }
+        let (u0, u1, fu) = clamped_axis(u, na);
+        let (v0, v1, fv) = clamped_axis(v, nb);
+        let row =
+            |iv: usize| self.values[u0 + na * iv] * (1.0 - fu) + self.values[u1 + na * iv] * fu;
+        row(v0) * (1.0 - fv) + row(v1) * fv
     }
 }
 
@@ -426,6 +534,24 @@ mod tests {
             assert!(
                 (got / want - 1.0).abs() < 0.02 && worst < 0.1 * deepest,
                 "sun {sun}: mean {got} against {want}, worst {worst} of {deepest}"
+            );
+        }
+    }
+
+    /// The fixtures' two casters keep every turn, and so do four; five halve them once, ten
+    /// twice, and none plans more than the bound unless one turn per level already would.
+    #[test]
+    fn many_species_share_the_memory_bound_by_coarser_turns() {
+        assert_eq!(coarsening(2, 6), 0);
+        assert_eq!(coarsening(4, 6), 0);
+        assert_eq!(coarsening(5, 6), 1);
+        assert_eq!(coarsening(10, 6), 2);
+        for casters in 1..200 {
+            let c = coarsening(casters, 6);
+            let turns: usize = (0..6).map(|l| (TURNS >> (l + c)).max(1)).sum();
+            assert!(
+                casters * turns * GRID_BYTES <= MEMORY_BOUND || c == 8,
+                "{casters}"
             );
         }
     }

@@ -1141,3 +1141,59 @@ fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
     assert!(worst < 0.03, "worst difference in transmittance {worst}");
     assert!(bias.iter().all(|b| b.abs() < 0.005), "{bias:?}");
 }
+
+/// A grid shared by trees of one turn and different scales is the same whichever of them
+/// asks for it first (the sun is turned without the tree's scale): otherwise the image would
+/// depend on which thread reached which tree first.
+#[test]
+fn a_shared_sun_depth_grid_does_not_depend_on_the_tree_that_built_it() {
+    let mut texel = uniform_texel([8; 3], 0.5, DVec3::new(-2.0, 0.0, -2.0), 1.0, [0.5; 3]);
+    let mut s = rng::Stream::new(5, 0);
+    for d in texel.levels[0].density[1].iter_mut() {
+        *d = 4.0 * s.unit() as f32;
+    }
+    let scales = [1.0, 1.37, 0.73, 1.91, 2.3, 0.61, 1.13, 0.87];
+    let placed: Vec<Placed> = (0..scales.len())
+        .map(|i| Placed {
+            look: 0,
+            position: DVec3::new(5.0 * i as f64, 0.0, 0.0),
+            rotation: 0.9,
+            scale: scales[i],
+        })
+        .collect();
+    let scene = || {
+        Scene::new(
+            DVec3::ZERO,
+            vec![texel.clone()],
+            vec![look()],
+            &placed,
+            None,
+            Lighting {
+                sun: Sun::from_angles(200.0, 40.0, std::f32::consts::PI),
+                shading: PLAIN,
+                sky: None,
+            },
+        )
+    };
+    let depths = |order: Vec<u32>| {
+        let scene = scene();
+        let mut d = vec![0.0f32; scales.len()];
+        for i in order {
+            let origin = scene.instances.get(i).position + Vec3::new(0.3, 1.0, -0.2);
+            let ray = Ray {
+                origin,
+                dir: scene.sun.direction,
+            };
+            d[i as usize] = scene.sun_depth.depth(&scene, i, 0, &ray);
+        }
+        assert_eq!(scene.sun_depth.built().0, 1, "one grid for one turn");
+        d.iter().map(|d| d.to_bits()).collect::<Vec<_>>()
+    };
+    let first = |i: u32| {
+        let n = scales.len() as u32;
+        depths((0..n).map(|k| (i + k) % n).collect())
+    };
+    for i in 1..scales.len() as u32 {
+        assert_eq!(first(0), first(i), "tree {i} first");
+    }
+}

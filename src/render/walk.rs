@@ -32,7 +32,8 @@ pub struct March {
     /// opacity) is below this casts its shadow ray with probability share / this, and counts
     /// it that many times more. Unbiased; 0 casts every shadow ray.
     pub shadow_share: f32,
-    /// How shadow rays cross the trees' textures.
+    /// How shadow rays cross the trees' textures. Exact by default here, the estimator the
+    /// library's tests hold to analytic answers; `texel render` defaults to cached.
     pub shadows: ShadowRays,
     /// Russian roulette on view rays: once the transmittance falls below this, a ray goes on
     /// past each segment with probability transmittance / this, carrying this. Unbiased; 0
