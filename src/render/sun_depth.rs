@@ -145,11 +145,16 @@ impl SunDepth {
 /// How many times every level's turns are halved for `casters` kinds of tree of `levels`
 /// levels: as few as keep all the grids there could be within [`MEMORY_BOUND`].
 fn coarsening(casters: usize, levels: usize) -> usize {
-    let planned = |coarsen: usize| {
-        let turns: usize = (0..levels).map(|l| (TURNS >> (l + coarsen)).max(1)).sum();
-        casters * turns * GRID_BYTES
-    };
-    (0..8).find(|&c| planned(c) <= MEMORY_BOUND).unwrap_or(8)
+    (0..8)
+        .find(|&c| planned_bytes(casters, levels, c) <= MEMORY_BOUND)
+        .unwrap_or(8)
+}
+
+/// The bytes of every grid there could be, at [`GRID_BYTES`] each, with every level's turns
+/// halved `coarsen` times.
+fn planned_bytes(casters: usize, levels: usize, coarsen: usize) -> usize {
+    let turns: usize = (0..levels).map(|l| (TURNS >> (l + coarsen)).max(1)).sum();
+    casters * turns * GRID_BYTES
 }
 
 /// Cells of a depth grid per cell of a level of `dims` cells: at least 32 across its
@@ -548,11 +553,39 @@ mod tests {
         assert_eq!(coarsening(10, 6), 2);
         for casters in 1..200 {
             let c = coarsening(casters, 6);
-            let turns: usize = (0..6).map(|l| (TURNS >> (l + c)).max(1)).sum();
             assert!(
-                casters * turns * GRID_BYTES <= MEMORY_BOUND || c == 8,
+                planned_bytes(casters, 6, c) <= MEMORY_BOUND || c == 8,
                 "{casters}"
             );
+            assert!(c == 0 || planned_bytes(casters, 6, c - 1) > MEMORY_BOUND);
+        }
+    }
+
+    /// A layer's slice is the level's trilinear field in that plane, as a march reads it:
+    /// at any point of planes across each axis, inside, on the faces and outside the grid.
+    #[test]
+    fn a_slice_reads_the_trilinear_field_in_its_plane() {
+        let level = cloud([6, 7, 5]);
+        let mut s = Stream::new(9, 0);
+        for k in 0..3 {
+            let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+            let mut slice = Slice::new(&level, [a, b, k], 1.3, 0.7);
+            for _ in 0..200 {
+                let mut c = Vec3::ZERO;
+                for (axis, x) in [a, b, k].into_iter().zip([-0.2, -0.2, 0.0]) {
+                    // Across, a little beyond the grid on both sides; along k, within it.
+                    let n = level.dims[axis] as f32;
+                    c[axis] = x * n + s.unit() as f32 * n * (1.0 - 2.0 * x);
+                }
+                slice.fill(c[k]);
+                let d = level.density_at(c);
+                let want = 1.3 * (d[0] + 0.7 * d[1]);
+                let got = slice.at(c[a], c[b]);
+                assert!(
+                    (got - want).abs() < 1e-5 * want.max(1.0),
+                    "{c}: {got} against {want}"
+                );
+            }
         }
     }
 

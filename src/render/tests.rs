@@ -1142,8 +1142,8 @@ fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
     assert!(bias.iter().all(|b| b.abs() < 0.005), "{bias:?}");
 }
 
-/// A grid shared by trees of one turn and different scales is the same whichever of them
-/// asks for it first (the sun is turned without the tree's scale): otherwise the image would
+/// A grid shared by trees of one turn and different scales, and species that differ only in
+/// colour, is the same whichever of them asks for it first (the sun is turned without the tree's scale): otherwise the image would
 /// depend on which thread reached which tree first.
 #[test]
 fn a_shared_sun_depth_grid_does_not_depend_on_the_tree_that_built_it() {
@@ -1153,9 +1153,10 @@ fn a_shared_sun_depth_grid_does_not_depend_on_the_tree_that_built_it() {
         *d = 4.0 * s.unit() as f32;
     }
     let scales = [1.0, 1.37, 0.73, 1.91, 2.3, 0.61, 1.13, 0.87];
+    // Half of them of a second species that differs only in colour: it shares their grids.
     let placed: Vec<Placed> = (0..scales.len())
         .map(|i| Placed {
-            look: 0,
+            look: (i % 2) as u16,
             position: DVec3::new(5.0 * i as f64, 0.0, 0.0),
             rotation: 0.9,
             scale: scales[i],
@@ -1165,7 +1166,13 @@ fn a_shared_sun_depth_grid_does_not_depend_on_the_tree_that_built_it() {
         Scene::new(
             DVec3::ZERO,
             vec![texel.clone()],
-            vec![look()],
+            vec![
+                look(),
+                Look {
+                    foliage_albedo: Vec3::new(0.3, 0.1, 0.05),
+                    ..look()
+                },
+            ],
             &placed,
             None,
             Lighting {
@@ -1186,7 +1193,11 @@ fn a_shared_sun_depth_grid_does_not_depend_on_the_tree_that_built_it() {
             };
             d[i as usize] = scene.sun_depth.depth(&scene, i, 0, &ray);
         }
-        assert_eq!(scene.sun_depth.built().0, 1, "one grid for one turn");
+        assert_eq!(
+            scene.sun_depth.built().0,
+            1,
+            "one grid for one turn and two species of one shadow"
+        );
         d.iter().map(|d| d.to_bits()).collect::<Vec<_>>()
     };
     let first = |i: u32| {
