@@ -19,7 +19,7 @@ const WIDTH: usize = 4;
 /// (and its build time n log n).
 const SAH_DEPTH: u32 = 48;
 /// Waiting children a traversal keeps on the stack before spilling to the heap.
-const STACK: usize = 40;
+const STACK: usize = 24;
 
 /// A node of the binary build.
 #[derive(Clone, Copy, Debug)]
@@ -98,11 +98,11 @@ impl SlabRay {
         }
     }
 
-    /// Where the ray enters each of `node`'s four boxes within [t_min, t_max], or infinity
-    /// where it misses. The same arithmetic as [`Aabb::intersect`]: `f32::max`/`min` drop
-    /// the NaN of 0 x infinity for a ray on a slab's plane.
+    /// Where the ray enters each of `node`'s four boxes within [t_min, t_max], and a bit per
+    /// box it meets. The same arithmetic as [`Aabb::intersect`]: `f32::max`/`min` drop the NaN
+    /// of 0 x infinity for a ray on a slab's plane.
     #[inline(always)]
-    fn enter(&self, node: &Wide, t_min: f32, t_max: f32) -> [f32; WIDTH] {
+    fn enter(&self, node: &Wide, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) {
         let mut enter = [t_min; WIDTH];
         let mut exit = [t_max; WIDTH];
         for a in 0..3 {
@@ -116,13 +116,11 @@ impl SlabRay {
                 exit[k] = exit[k].min((far[k] - self.origin[a]) * self.inv[a]);
             }
         }
-        std::array::from_fn(|k| {
-            if enter[k] <= exit[k] {
-                enter[k]
-            } else {
-                f32::INFINITY
-            }
-        })
+        let mut met = 0;
+        for k in 0..WIDTH {
+            met |= u32::from(enter[k] <= exit[k]) << k;
+        }
+        (enter, met)
     }
 }
 
@@ -136,8 +134,24 @@ pub struct Bvh {
 }
 
 impl Bvh {
+    /// A tree whose leaves hold at most [`LEAF_SIZE`] primitives.
     pub fn build(boxes: &[Aabb]) -> Bvh {
-        let (binary, order) = build_binary(boxes);
+        Self::build_with_leaves(boxes, LEAF_SIZE)
+    }
+
+    /// A tree whose leaves hold at most `leaf_size` (1 to [`LEAF_SIZE`]) primitives. One a
+    /// leaf suits primitives that cost far more than a box test (instances, whose test
+    /// carries the ray into the model and walks its tree): each is tested only when the ray
+    /// meets its own box.
+    ///
+    /// Panics with more than [`MAX_PRIMITIVES`] boxes (the limits on trees and triangles keep
+    /// inputs far below it).
+    pub fn build_with_leaves(boxes: &[Aabb], leaf_size: usize) -> Bvh {
+        assert!(
+            boxes.len() <= MAX_PRIMITIVES,
+            "a hierarchy holds at most {MAX_PRIMITIVES} primitives"
+        );
+        let (binary, order) = build_binary(boxes, leaf_size.clamp(1, LEAF_SIZE));
         let mut nodes = vec![Wide::UNUSED];
         if !order.is_empty() {
             collapse(&binary, &mut nodes);
@@ -198,93 +212,168 @@ impl Bvh {
         })
     }
 
-    /// The leaves as ranges of [`Bvh::order`] (`start`, `count`), each once.
-    pub fn leaves(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
-        self.nodes.iter().flat_map(|node| {
-            node.used()
-                .filter(|&k| node.count[k] > 0)
-                .map(|k| (node.start[k], node.count[k]))
-        })
-    }
-
     /// [`Bvh::traverse`] a leaf at a time: `test(start, count, t_max)` tests the primitives
     /// `order[start..][..count]` together, for callers that keep a leaf's data as one packet.
     pub fn traverse_leaves(
         &self,
         ray: &Ray,
         t_min: f32,
-        mut t_max: f32,
-        mut test: impl FnMut(u32, u32, f32) -> Option<f32>,
+        t_max: f32,
+        test: impl FnMut(u32, u32, f32) -> Option<f32>,
     ) -> f32 {
-        let slab = SlabRay::new(ray);
-        let mut waiting = Waiting::new();
-        let (mut start, mut count) = (0u32, 0u32);
-        loop {
-            if count == 0 {
-                let node = &self.nodes[start as usize];
-                let enter = slab.enter(node, t_min, t_max);
-                // The hit children, nearest first (an insertion sort of at most four).
-                let mut hits = [(0f32, 0usize); WIDTH];
-                let mut n = 0;
-                for (k, &e) in enter.iter().enumerate() {
-                    if e == f32::INFINITY {
-                        continue;
-                    }
-                    let mut j = n;
-                    while j > 0 && hits[j - 1].0 > e {
-                        hits[j] = hits[j - 1];
-                        j -= 1;
-                    }
-                    hits[j] = (e, k);
-                    n += 1;
+        walk(&self.nodes, ray, t_min, t_max, test)
+    }
+
+    /// The same tree with its leaves numbered 0, 1, 2..., for a
+    /// caller that keeps each leaf's primitives together in an array of its own: a ray then
+    /// reaches a leaf's data in one fetch, not through [`Bvh::order`]. Returns each leaf's
+    /// primitives, by number.
+    pub fn into_numbered_leaves(self) -> (NumberedLeaves, Vec<Vec<u32>>) {
+        let Bvh {
+            mut nodes,
+            order,
+            bounds,
+        } = self;
+        let mut leaves = Vec::new();
+        for node in &mut nodes {
+            for k in 0..WIDTH {
+                if node.start[k] != EMPTY && node.count[k] > 0 {
+                    let (s, c) = (node.start[k] as usize, node.count[k] as usize);
+                    node.start[k] = leaves.len() as u32;
+                    leaves.push(order[s..s + c].to_vec());
                 }
-                if n > 0 {
-                    for &(e, k) in hits[1..n].iter().rev() {
-                        waiting.push((node.start[k], node.count[k], e));
+            }
+        }
+        (NumberedLeaves { nodes, bounds }, leaves)
+    }
+}
+
+/// A hierarchy whose leaves are numbered (see [`Bvh::into_numbered_leaves`]).
+#[derive(Clone, Debug)]
+pub struct NumberedLeaves {
+    nodes: Vec<Wide>,
+    bounds: Aabb,
+}
+
+impl NumberedLeaves {
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// [`Bvh::traverse_leaves`], with the leaf's number as `start`.
+    pub fn traverse(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        test: impl FnMut(u32, u32, f32) -> Option<f32>,
+    ) -> f32 {
+        walk(&self.nodes, ray, t_min, t_max, test)
+    }
+}
+
+/// Walks `nodes` (the root first) along `ray` within (t_min, t_max), nearest child first,
+/// calling `test(start, count, t_max)` on each leaf reached before the nearest hit so far.
+fn walk(
+    nodes: &[Wide],
+    ray: &Ray,
+    t_min: f32,
+    mut t_max: f32,
+    mut test: impl FnMut(u32, u32, f32) -> Option<f32>,
+) -> f32 {
+    let slab = SlabRay::new(ray);
+    let mut waiting = Waiting::new();
+    let (mut start, mut count) = (0u32, 0u32);
+    loop {
+        if count == 0 {
+            let node = &nodes[start as usize];
+            let (enter, mut met) = slab.enter(node, t_min, t_max);
+            // Counting the boxes met first keeps the common cases (none, one) free of
+            // branches that depend on each child.
+            match met.count_ones() {
+                0 => {}
+                1 => {
+                    let k = met.trailing_zeros() as usize;
+                    (start, count) = (node.start[k], node.count[k]);
+                    continue;
+                }
+                n => {
+                    // The children met, nearest first: an insertion sort of at most four,
+                    // stable, so equally near children keep their slots' order.
+                    let mut hits = [(0f32, 0usize); WIDTH];
+                    for i in 0..n as usize {
+                        let k = met.trailing_zeros() as usize;
+                        met &= met - 1;
+                        let e = enter[k];
+                        let mut j = i;
+                        while j > 0 && hits[j - 1].0 > e {
+                            hits[j] = hits[j - 1];
+                            j -= 1;
+                        }
+                        hits[j] = (e, k);
+                    }
+                    for &(e, k) in hits[1..n as usize].iter().rev() {
+                        waiting.push((pack(node.start[k], node.count[k]), e));
                     }
                     let k = hits[0].1;
                     (start, count) = (node.start[k], node.count[k]);
                     continue;
                 }
-            } else if let Some(t) = test(start, count, t_max) {
-                t_max = t_max.min(t);
-                if t_max <= t_min {
-                    return t_max;
-                }
             }
-            // The nearest waiting child the ray still reaches before its nearest hit.
-            loop {
-                let Some((s, c, e)) = waiting.pop() else {
-                    return t_max;
-                };
-                if e <= t_max {
-                    (start, count) = (s, c);
-                    break;
-                }
+        } else if let Some(t) = test(start, count, t_max) {
+            t_max = t_max.min(t);
+            if t_max <= t_min {
+                return t_max;
+            }
+        }
+        // The nearest waiting child the ray still reaches before its nearest hit.
+        loop {
+            let Some((slot, e)) = waiting.pop() else {
+                return t_max;
+            };
+            if e <= t_max {
+                (start, count) = unpack(slot);
+                break;
             }
         }
     }
 }
 
-/// Children waiting in a traversal, with where the ray enters them: (start, count, enter),
-/// like a slot. A small array on the stack (no allocation, little to initialise); the rare
-/// deeper entries (three per level) spill to the heap.
+/// A child slot as one word, for the traversal's stack: its `start` shifted past three bits
+/// that hold its `count` (0 to [`LEAF_SIZE`]).
+type Packed = u32;
+
+/// Primitives (and nodes) a tree may have: their indices fit a [`Packed`] beside a count.
+pub const MAX_PRIMITIVES: usize = (1 << 29) - 1;
+
+fn pack(start: u32, count: u32) -> Packed {
+    start << 3 | count
+}
+
+fn unpack(p: Packed) -> (u32, u32) {
+    (p >> 3, p & 7)
+}
+
+/// Children waiting in a traversal, with where the ray enters them: (slot, enter). A small
+/// array on the stack (no allocation, little to initialise: it is set up once per walk, and a
+/// ray walks a model's tree for every tree it passes); the rare deeper entries (three per
+/// level) spill to the heap.
 struct Waiting {
-    near: [(u32, u32, f32); STACK],
+    near: [(Packed, f32); STACK],
     len: usize,
-    spill: Vec<(u32, u32, f32)>,
+    spill: Vec<(Packed, f32)>,
 }
 
 impl Waiting {
     fn new() -> Waiting {
         Waiting {
-            near: [(0, 0, 0.0); STACK],
+            near: [(0, 0.0); STACK],
             len: 0,
             spill: Vec::new(),
         }
     }
 
-    fn push(&mut self, entry: (u32, u32, f32)) {
+    fn push(&mut self, entry: (Packed, f32)) {
         if self.len < STACK {
             self.near[self.len] = entry;
             self.len += 1;
@@ -293,7 +382,7 @@ impl Waiting {
         }
     }
 
-    fn pop(&mut self) -> Option<(u32, u32, f32)> {
+    fn pop(&mut self) -> Option<(Packed, f32)> {
         if let Some(entry) = self.spill.pop() {
             return Some(entry);
         }
@@ -304,7 +393,7 @@ impl Waiting {
 
 /// The binary SAH tree over `boxes` (node 0 the root) and the primitive order its leaves
 /// index.
-fn build_binary(boxes: &[Aabb]) -> (Vec<Binary>, Vec<u32>) {
+fn build_binary(boxes: &[Aabb], leaf_size: usize) -> (Vec<Binary>, Vec<u32>) {
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
     let centres: Vec<Vec3> = boxes.iter().map(Aabb::centre).collect();
     let root = Binary {
@@ -316,13 +405,13 @@ fn build_binary(boxes: &[Aabb]) -> (Vec<Binary>, Vec<u32>) {
     let mut todo = vec![(0usize, 0u32)];
     while let Some((n, depth)) = todo.pop() {
         let Binary { start, count, .. } = nodes[n];
-        if count as usize <= LEAF_SIZE {
+        if count as usize <= leaf_size {
             continue;
         }
         let range = start as usize..(start + count) as usize;
         let part = &mut order[range.clone()];
         // Where no plane beats a leaf (centres that coincide) the median still splits: every
-        // leaf holds at most LEAF_SIZE primitives, which callers' packets rely on.
+        // leaf holds at most `leaf_size` primitives, which callers' packets rely on.
         let sah = if depth < SAH_DEPTH {
             split(boxes, &centres, part)
         } else {
@@ -548,6 +637,39 @@ mod tests {
         }
     }
 
+    /// Leaves of one primitive, and numbered leaves: the same hits as brute force, and the
+    /// numbered leaves hold every primitive once.
+    #[test]
+    fn single_and_numbered_leaves_match_brute_force() {
+        let tris = random_triangles(11, 400, 0.3);
+        let boxes: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
+        let single = Bvh::build_with_leaves(&boxes, 1);
+        assert!(single.nodes.iter().all(|n| n.count.iter().all(|&c| c <= 1)));
+        let (numbered, leaves) = Bvh::build(&boxes).into_numbered_leaves();
+        let mut all: Vec<u32> = leaves.iter().flatten().copied().collect();
+        all.sort();
+        assert_eq!(all, (0..tris.len() as u32).collect::<Vec<_>>());
+        let mut s = Stream::new(12, 0);
+        let mut r = || s.range(-10.0, 10.0) as f32;
+        for _ in 0..2000 {
+            let ray = Ray {
+                origin: Vec3::new(r(), r(), r()),
+                dir: Vec3::new(r(), r(), r()).normalize(),
+            };
+            let expected = brute(&tris, &ray);
+            assert_eq!(expected, nearest(&single, &tris, &ray));
+            let by_leaf = numbered.traverse(&ray, 0.0, f32::INFINITY, |leaf, count, t_max| {
+                assert_eq!(count as usize, leaves[leaf as usize].len());
+                leaves[leaf as usize]
+                    .iter()
+                    .filter_map(|&i| intersect_triangle(&ray, tris[i as usize], 0.0, t_max))
+                    .map(|h| h.t)
+                    .reduce(f32::min)
+            });
+            assert_eq!(expected, by_leaf);
+        }
+    }
+
     /// Past the array, waiting children spill to the heap and still come back last in,
     /// first out, each once.
     #[test]
@@ -555,10 +677,11 @@ mod tests {
         let mut w = Waiting::new();
         let n = 3 * STACK as u32;
         for i in 0..n {
-            w.push((i, 1, i as f32));
+            w.push((pack(i, 1), i as f32));
         }
         for i in (0..n).rev() {
-            assert_eq!(w.pop(), Some((i, 1, i as f32)));
+            assert_eq!(w.pop(), Some((pack(i, 1), i as f32)));
+            assert_eq!(unpack(pack(i, 4)), (i, 4));
         }
         assert_eq!(w.pop(), None);
     }

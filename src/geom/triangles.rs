@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::bvh::LEAF_SIZE;
+use super::bvh::{LEAF_SIZE, NumberedLeaves};
 use super::{Aabb, Bvh, Ray, TriangleHit};
 
 const LANES: usize = LEAF_SIZE;
@@ -38,10 +38,11 @@ fn dot(a: [Lanes; 3], b: [Lanes; 3]) -> Lanes {
 }
 
 impl Packet {
-    /// Each lane's hit of `ray` within (t_min, t_max), as (t, u, v), exactly as
-    /// [`intersect_triangle`] computes it.
+    /// Each lane's hit of `ray` within (t_min, t_max): (t, u, v) per lane, exactly as
+    /// [`intersect_triangle`] computes them, and a bit per lane that is a hit. The tests are
+    /// combined without short cuts, so they stay lane-parallel arithmetic.
     #[inline(always)]
-    fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> [Option<(f32, f32, f32)>; LANES] {
+    fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> ([Lanes; 3], u32) {
         let splat = |v: Vec3| -> [Lanes; 3] { [[v.x; LANES], [v.y; LANES], [v.z; LANES]] };
         let dir = splat(ray.dir);
         let pv = cross(dir, self.e2);
@@ -62,94 +63,102 @@ impl Packet {
             let d = dot(self.e2, qv);
             std::array::from_fn(|k| d[k] * inv[k])
         };
-        std::array::from_fn(|k| {
-            let ok = det[k] != 0.0
-                && det[k].is_finite()
-                && (0.0..=1.0).contains(&u[k])
-                && v[k] >= 0.0
-                && u[k] + v[k] <= 1.0
-                && t[k] > t_min
-                && t[k] < t_max;
-            ok.then_some((t[k], u[k], v[k]))
-        })
+        let mut hits = 0;
+        for k in 0..LANES {
+            let ok = (det[k] != 0.0)
+                & det[k].is_finite()
+                & (u[k] >= 0.0)
+                & (u[k] <= 1.0)
+                & (v[k] >= 0.0)
+                & (u[k] + v[k] <= 1.0)
+                & (t[k] > t_min)
+                & (t[k] < t_max);
+            hits |= u32::from(ok) << k;
+        }
+        ([t, u, v], hits)
     }
 }
 
 pub struct TriangleBvh {
+    /// One per leaf of the hierarchy, by the leaf's number.
     packets: Vec<Packet>,
-    /// Per slot of the hierarchy's order: the packet of the leaf starting there.
-    packet_at: Vec<u32>,
-    bvh: Bvh,
+    tree: NumberedLeaves,
+    triangles: usize,
 }
 
 impl TriangleBvh {
     pub fn new(corners: Vec<[Vec3; 3]>) -> TriangleBvh {
         let boxes: Vec<Aabb> = corners.iter().map(|c| Aabb::of_points(c)).collect();
-        let bvh = Bvh::build(&boxes);
-        let mut packets = Vec::new();
-        let mut packet_at = vec![0; corners.len()];
-        for (start, count) in bvh.leaves() {
-            let mut p = Packet::default();
-            for lane in 0..count as usize {
-                let id = bvh.order()[start as usize + lane];
-                let [a, b, c] = corners[id as usize];
-                let (e1, e2) = (b - a, c - a);
-                for axis in 0..3 {
-                    p.p0[axis][lane] = a[axis];
-                    p.e1[axis][lane] = e1[axis];
-                    p.e2[axis][lane] = e2[axis];
+        let (tree, leaves) = Bvh::build(&boxes).into_numbered_leaves();
+        let packets = leaves
+            .iter()
+            .map(|ids| {
+                let mut p = Packet::default();
+                for (lane, &id) in ids.iter().enumerate() {
+                    let [a, b, c] = corners[id as usize];
+                    let (e1, e2) = (b - a, c - a);
+                    for axis in 0..3 {
+                        p.p0[axis][lane] = a[axis];
+                        p.e1[axis][lane] = e1[axis];
+                        p.e2[axis][lane] = e2[axis];
+                    }
+                    p.id[lane] = id;
                 }
-                p.id[lane] = id;
-            }
-            packet_at[start as usize] = packets.len() as u32;
-            packets.push(p);
-        }
+                p
+            })
+            .collect();
         TriangleBvh {
             packets,
-            packet_at,
-            bvh,
+            tree,
+            triangles: corners.len(),
         }
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.bvh.bounds()
+        self.tree.bounds()
     }
 
     pub fn len(&self) -> usize {
-        self.packet_at.len()
+        self.triangles
     }
 
     pub fn is_empty(&self) -> bool {
-        self.packet_at.is_empty()
+        self.triangles == 0
     }
 
-    /// Calls `keep` on the hits of the leaf at `start` nearest first, until it accepts one:
+    /// Calls `keep` on the hits of leaf number `leaf` nearest first, until it accepts one:
     /// that hit.
     fn first_kept(
         &self,
         ray: &Ray,
-        start: u32,
+        leaf: u32,
         t_min: f32,
         t_max: f32,
         keep: &mut impl FnMut(u32, &TriangleHit) -> bool,
     ) -> Option<(u32, TriangleHit)> {
-        let packet = &self.packets[self.packet_at[start as usize] as usize];
-        let mut hits = packet.intersect(ray, t_min, t_max);
-        loop {
-            let (lane, &(t, u, v)) = hits
-                .iter()
-                .enumerate()
-                .filter_map(|(k, h)| h.as_ref().map(|h| (k, h)))
-                .min_by(|a, b| a.1.0.total_cmp(&b.1.0))?;
+        let packet = &self.packets[leaf as usize];
+        let ([t, u, v], mut hits) = packet.intersect(ray, t_min, t_max);
+        while hits != 0 {
+            // The nearest hit left (the first lane of equals, as a scan in lane order finds).
+            let mut lane = hits.trailing_zeros() as usize;
+            let mut rest = hits & (hits - 1);
+            while rest != 0 {
+                let k = rest.trailing_zeros() as usize;
+                if t[k] < t[lane] {
+                    lane = k;
+                }
+                rest &= rest - 1;
+            }
             let hit = TriangleHit {
-                t,
-                w: [1.0 - u - v, u, v],
+                t: t[lane],
+                w: [1.0 - u[lane] - v[lane], u[lane], v[lane]],
             };
             if keep(packet.id[lane], &hit) {
                 return Some((packet.id[lane], hit));
             }
-            hits[lane] = None;
+            hits &= !(1 << lane);
         }
+        None
     }
 
     /// The nearest hit within (t_min, t_max) that `keep` accepts.
@@ -161,12 +170,11 @@ impl TriangleBvh {
         mut keep: impl FnMut(u32, &TriangleHit) -> bool,
     ) -> Option<(u32, TriangleHit)> {
         let mut best = None;
-        self.bvh
-            .traverse_leaves(ray, t_min, t_max, |start, _, t_max| {
-                let found = self.first_kept(ray, start, t_min, t_max, &mut keep)?;
-                best = Some(found);
-                Some(found.1.t)
-            });
+        self.tree.traverse(ray, t_min, t_max, |leaf, _, t_max| {
+            let found = self.first_kept(ray, leaf, t_min, t_max, &mut keep)?;
+            best = Some(found);
+            Some(found.1.t)
+        });
         best
     }
 
@@ -179,12 +187,11 @@ impl TriangleBvh {
         mut keep: impl FnMut(u32, &TriangleHit) -> bool,
     ) -> bool {
         let mut hit = false;
-        self.bvh
-            .traverse_leaves(ray, t_min, t_max, |start, _, t_max| {
-                self.first_kept(ray, start, t_min, t_max, &mut keep)?;
-                hit = true;
-                Some(t_min)
-            });
+        self.tree.traverse(ray, t_min, t_max, |leaf, _, t_max| {
+            self.first_kept(ray, leaf, t_min, t_max, &mut keep)?;
+            hit = true;
+            Some(t_min)
+        });
         hit
     }
 }

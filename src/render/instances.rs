@@ -118,7 +118,7 @@ impl Instances {
             .map(|(b, &cell)| (b.centre(), cell))
             .collect();
         Instances {
-            bvh: Bvh::build(&boxes),
+            bvh: Bvh::build_with_leaves(&boxes, 1),
             list,
             model_boxes,
             model_lod,
