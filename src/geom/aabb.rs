@@ -44,8 +44,12 @@ impl Aabb {
     }
 
     /// Parametric interval where `ray` is inside the box, clipped to [t_min, t_max]; `inv_dir`
-    /// is 1 / ray.dir (infinite components are fine: IEEE arithmetic gives the right slabs,
-    /// and `min`/`max` drop the NaN of 0 x infinity for a ray on a slab's plane).
+    /// is 1 / ray.dir (infinite components are fine: IEEE arithmetic gives the right slabs).
+    /// Each slab's planes are taken in the order the ray meets them, and clipped by
+    /// comparisons, which are one instruction each where `f32::max`/`min` are several: a NaN
+    /// (0 x infinity, a ray on a slab's plane and parallel to it) fails the comparison and
+    /// leaves that slab unclipped, as the hierarchy's slab test does.
+    #[inline]
     pub fn intersect(
         &self,
         ray: &Ray,
@@ -53,12 +57,18 @@ impl Aabb {
         t_min: f32,
         t_max: f32,
     ) -> Option<(f32, f32)> {
-        let t0 = (self.lo - ray.origin) * inv_dir;
-        let t1 = (self.hi - ray.origin) * inv_dir;
-        let near = t0.min(t1);
-        let far = t0.max(t1);
-        let enter = near.x.max(near.y).max(near.z).max(t_min);
-        let exit = far.x.min(far.y).min(far.z).min(t_max);
+        let (mut enter, mut exit) = (t_min, t_max);
+        for a in 0..3 {
+            let (near, far) = if inv_dir[a] < 0.0 {
+                (self.hi[a], self.lo[a])
+            } else {
+                (self.lo[a], self.hi[a])
+            };
+            let t0 = (near - ray.origin[a]) * inv_dir[a];
+            let t1 = (far - ray.origin[a]) * inv_dir[a];
+            enter = if t0 > enter { t0 } else { enter };
+            exit = if t1 < exit { t1 } else { exit };
+        }
         (enter <= exit).then_some((enter, exit))
     }
 }

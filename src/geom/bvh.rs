@@ -63,15 +63,9 @@ impl Wide {
     }
 
     /// The slots in use.
+    #[cfg(test)]
     fn used(&self) -> impl Iterator<Item = usize> + '_ {
         (0..WIDTH).filter(|&k| self.start[k] != EMPTY)
-    }
-
-    fn bounds(&self, k: usize) -> Aabb {
-        Aabb {
-            lo: Vec3::new(self.lo[0][k], self.lo[1][k], self.lo[2][k]),
-            hi: Vec3::new(self.hi[0][k], self.hi[1][k], self.hi[2][k]),
-        }
     }
 }
 
@@ -82,14 +76,14 @@ pub enum NodeContent<'a> {
 }
 
 /// A ray prepared for slab tests: per axis, which of a box's two planes it meets first.
-struct SlabRay {
+pub struct SlabRay {
     origin: [f32; 3],
     inv: [f32; 3],
     negative: [bool; 3],
 }
 
 impl SlabRay {
-    fn new(ray: &Ray) -> SlabRay {
+    pub fn new(ray: &Ray) -> SlabRay {
         let inv = ray.dir.recip();
         SlabRay {
             origin: ray.origin.to_array(),
@@ -99,8 +93,8 @@ impl SlabRay {
     }
 
     /// Where the ray enters each of `node`'s four boxes within [t_min, t_max], and a bit per
-    /// box it meets. The same arithmetic as [`Aabb::intersect`]: `f32::max`/`min` drop the NaN
-    /// of 0 x infinity for a ray on a slab's plane.
+    /// box it meets. The same arithmetic as [`Aabb::intersect`], which drops the NaN of
+    /// 0 x infinity for a ray on a slab's plane.
     #[inline(always)]
     fn enter(&self, node: &Wide, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) {
         let mut enter = [t_min; WIDTH];
@@ -112,8 +106,15 @@ impl SlabRay {
                 (&node.lo[a], &node.hi[a])
             };
             for k in 0..WIDTH {
-                enter[k] = enter[k].max((near[k] - self.origin[a]) * self.inv[a]);
-                exit[k] = exit[k].min((far[k] - self.origin[a]) * self.inv[a]);
+                // Written as comparisons, which are one vector instruction each; f32::max and
+                // min are several, to give NaN meaning. A NaN here (0 x infinity) fails the
+                // comparison and is dropped, as f32::max/min drop it.
+                let (t0, t1) = (
+                    (near[k] - self.origin[a]) * self.inv[a],
+                    (far[k] - self.origin[a]) * self.inv[a],
+                );
+                enter[k] = if t0 > enter[k] { t0 } else { enter[k] };
+                exit[k] = if t1 < exit[k] { t1 } else { exit[k] };
             }
         }
         let mut met = 0;
@@ -134,24 +135,14 @@ pub struct Bvh {
 }
 
 impl Bvh {
-    /// A tree whose leaves hold at most [`LEAF_SIZE`] primitives.
-    pub fn build(boxes: &[Aabb]) -> Bvh {
-        Self::build_with_leaves(boxes, LEAF_SIZE)
-    }
-
-    /// A tree whose leaves hold at most `leaf_size` (1 to [`LEAF_SIZE`]) primitives. One a
-    /// leaf suits primitives that cost far more than a box test (instances, whose test
-    /// carries the ray into the model and walks its tree): each is tested only when the ray
-    /// meets its own box.
-    ///
     /// Panics with more than [`MAX_PRIMITIVES`] boxes (the limits on trees and triangles keep
     /// inputs far below it).
-    pub fn build_with_leaves(boxes: &[Aabb], leaf_size: usize) -> Bvh {
+    pub fn build(boxes: &[Aabb]) -> Bvh {
         assert!(
             boxes.len() <= MAX_PRIMITIVES,
             "a hierarchy holds at most {MAX_PRIMITIVES} primitives"
         );
-        let (binary, order) = build_binary(boxes, leaf_size.clamp(1, LEAF_SIZE));
+        let (binary, order) = build_binary(boxes);
         let mut nodes = vec![Wide::UNUSED];
         if !order.is_empty() {
             collapse(&binary, &mut nodes);
@@ -172,19 +163,28 @@ impl Bvh {
         &self.order
     }
 
-    /// Inner node `n`'s children (0 is the root), for callers that walk the tree themselves:
-    /// each child's box and content.
-    pub fn children(&self, n: u32) -> impl Iterator<Item = (Aabb, NodeContent<'_>)> {
+    /// The children of inner node `n` (0 is the root) that `slab`'s ray enters within
+    /// [0, t_max], for callers that walk the tree themselves: where the ray enters each, and
+    /// what it holds.
+    pub fn entered(
+        &self,
+        n: u32,
+        slab: &SlabRay,
+        t_max: f32,
+    ) -> impl Iterator<Item = (f32, NodeContent<'_>)> {
         let node = &self.nodes[n as usize];
-        node.used().map(move |k| {
-            let content = if node.count[k] == 0 {
-                NodeContent::Inner(node.start[k])
-            } else {
-                let s = node.start[k] as usize;
-                NodeContent::Leaf(&self.order[s..s + node.count[k] as usize])
-            };
-            (node.bounds(k), content)
-        })
+        let (enter, met) = slab.enter(node, 0.0, t_max);
+        (0..WIDTH)
+            .filter(move |k| met & (1 << k) != 0)
+            .map(move |k| {
+                let content = if node.count[k] == 0 {
+                    NodeContent::Inner(node.start[k])
+                } else {
+                    let s = node.start[k] as usize;
+                    NodeContent::Leaf(&self.order[s..s + node.count[k] as usize])
+                };
+                (enter[k], content)
+            })
     }
 
     /// Walks the nodes `ray` crosses within (t_min, t_max), nearest first, calling `test` on
@@ -288,37 +288,37 @@ fn walk(
         if count == 0 {
             let node = &nodes[start as usize];
             let (enter, mut met) = slab.enter(node, t_min, t_max);
-            // Counting the boxes met first keeps the common cases (none, one) free of
-            // branches that depend on each child.
-            match met.count_ones() {
-                0 => {}
-                1 => {
+            // The common cases (none met, one met) first, free of branches that depend on
+            // each child (and of a bit count, which baseline x86-64 has no instruction for).
+            if met == 0 {
+                // Nothing here: on to the waiting children.
+            } else if met & (met - 1) == 0 {
+                let k = met.trailing_zeros() as usize;
+                (start, count) = (node.start[k], node.count[k]);
+                continue;
+            } else {
+                // The children met, nearest first: an insertion sort of at most four,
+                // stable, so equally near children keep their slots' order.
+                let mut hits = [(0f32, 0usize); WIDTH];
+                let mut n = 0;
+                while met != 0 {
                     let k = met.trailing_zeros() as usize;
-                    (start, count) = (node.start[k], node.count[k]);
-                    continue;
-                }
-                n => {
-                    // The children met, nearest first: an insertion sort of at most four,
-                    // stable, so equally near children keep their slots' order.
-                    let mut hits = [(0f32, 0usize); WIDTH];
-                    for i in 0..n as usize {
-                        let k = met.trailing_zeros() as usize;
-                        met &= met - 1;
-                        let e = enter[k];
-                        let mut j = i;
-                        while j > 0 && hits[j - 1].0 > e {
-                            hits[j] = hits[j - 1];
-                            j -= 1;
-                        }
-                        hits[j] = (e, k);
+                    met &= met - 1;
+                    let e = enter[k];
+                    let mut j = n;
+                    while j > 0 && hits[j - 1].0 > e {
+                        hits[j] = hits[j - 1];
+                        j -= 1;
                     }
-                    for &(e, k) in hits[1..n as usize].iter().rev() {
-                        waiting.push((pack(node.start[k], node.count[k]), e));
-                    }
-                    let k = hits[0].1;
-                    (start, count) = (node.start[k], node.count[k]);
-                    continue;
+                    hits[j] = (e, k);
+                    n += 1;
                 }
+                for &(e, k) in hits[1..n].iter().rev() {
+                    waiting.push((pack(node.start[k], node.count[k]), e));
+                }
+                let k = hits[0].1;
+                (start, count) = (node.start[k], node.count[k]);
+                continue;
             }
         } else if let Some(t) = test(start, count, t_max) {
             t_max = t_max.min(t);
@@ -393,7 +393,7 @@ impl Waiting {
 
 /// The binary SAH tree over `boxes` (node 0 the root) and the primitive order its leaves
 /// index.
-fn build_binary(boxes: &[Aabb], leaf_size: usize) -> (Vec<Binary>, Vec<u32>) {
+fn build_binary(boxes: &[Aabb]) -> (Vec<Binary>, Vec<u32>) {
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
     let centres: Vec<Vec3> = boxes.iter().map(Aabb::centre).collect();
     let root = Binary {
@@ -405,13 +405,13 @@ fn build_binary(boxes: &[Aabb], leaf_size: usize) -> (Vec<Binary>, Vec<u32>) {
     let mut todo = vec![(0usize, 0u32)];
     while let Some((n, depth)) = todo.pop() {
         let Binary { start, count, .. } = nodes[n];
-        if count as usize <= leaf_size {
+        if count as usize <= LEAF_SIZE {
             continue;
         }
         let range = start as usize..(start + count) as usize;
         let part = &mut order[range.clone()];
         // Where no plane beats a leaf (centres that coincide) the median still splits: every
-        // leaf holds at most `leaf_size` primitives, which callers' packets rely on.
+        // leaf holds at most LEAF_SIZE primitives, which callers' packets rely on.
         let sah = if depth < SAH_DEPTH {
             split(boxes, &centres, part)
         } else {
@@ -637,14 +637,11 @@ mod tests {
         }
     }
 
-    /// Leaves of one primitive, and numbered leaves: the same hits as brute force, and the
-    /// numbered leaves hold every primitive once.
+    /// Numbered leaves: the same hits as brute force, and every primitive in one leaf.
     #[test]
-    fn single_and_numbered_leaves_match_brute_force() {
+    fn numbered_leaves_match_brute_force() {
         let tris = random_triangles(11, 400, 0.3);
         let boxes: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
-        let single = Bvh::build_with_leaves(&boxes, 1);
-        assert!(single.nodes.iter().all(|n| n.count.iter().all(|&c| c <= 1)));
         let (numbered, leaves) = Bvh::build(&boxes).into_numbered_leaves();
         let mut all: Vec<u32> = leaves.iter().flatten().copied().collect();
         all.sort();
@@ -657,7 +654,6 @@ mod tests {
                 dir: Vec3::new(r(), r(), r()).normalize(),
             };
             let expected = brute(&tris, &ray);
-            assert_eq!(expected, nearest(&single, &tris, &ray));
             let by_leaf = numbered.traverse(&ray, 0.0, f32::INFINITY, |leaf, count, t_max| {
                 assert_eq!(count as usize, leaves[leaf as usize].len());
                 leaves[leaf as usize]
@@ -706,13 +702,15 @@ mod tests {
             };
             assert_eq!(brute(&tris, &ray), nearest(&bvh, &tris, &ray));
         }
-        let leaves: usize = (0..bvh.nodes.len() as u32)
-            .flat_map(|n| bvh.children(n).collect::<Vec<_>>())
-            .map(|(_, c)| match c {
-                NodeContent::Leaf(items) => items.len(),
-                NodeContent::Inner(_) => 0,
-            })
+        let leaves: u32 = bvh
+            .nodes
+            .iter()
+            .flat_map(|n| n.used().map(|k| n.count[k]))
             .sum();
-        assert_eq!(leaves, tris.len(), "every primitive in exactly one leaf");
+        assert_eq!(
+            leaves as usize,
+            tris.len(),
+            "every primitive in exactly one leaf"
+        );
     }
 }

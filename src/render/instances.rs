@@ -18,7 +18,7 @@ use std::collections::BinaryHeap;
 
 use glam::Vec3;
 
-use crate::geom::{Aabb, Bvh, NodeContent, Ray, box_corners, gamma};
+use crate::geom::{Aabb, Bvh, NodeContent, Ray, SlabRay, box_corners, gamma};
 
 /// A placed tree in the renderer's frame.
 #[derive(Clone, Copy, Debug)]
@@ -118,7 +118,7 @@ impl Instances {
             .map(|(b, &cell)| (b.centre(), cell))
             .collect();
         Instances {
-            bvh: Bvh::build_with_leaves(&boxes, 1),
+            bvh: Bvh::build(&boxes),
             list,
             model_boxes,
             model_lod,
@@ -210,7 +210,7 @@ impl Instances {
         Intervals {
             instances: self,
             ray,
-            inv,
+            slab: SlabRay::new(&ray),
             t_max,
             heap,
         }
@@ -304,7 +304,7 @@ enum Item {
 pub struct Intervals<'a> {
     instances: &'a Instances,
     ray: Ray,
-    inv: Vec3,
+    slab: SlabRay,
     t_max: f32,
     heap: BinaryHeap<Reverse<(u32, Item)>>,
 }
@@ -337,10 +337,7 @@ impl Intervals<'_> {
     /// the instances of leaves.
     fn open(&mut self, n: u32) {
         let bvh = &self.instances.bvh;
-        for (bounds, content) in bvh.children(n) {
-            let Some((e, _)) = bounds.intersect(&self.ray, self.inv, 0.0, self.t_max) else {
-                continue;
-            };
+        for (e, content) in bvh.entered(n, &self.slab, self.t_max) {
             match content {
                 NodeContent::Inner(child) => {
                     self.heap.push(Reverse((order_key(e), Item::Node(child))));
