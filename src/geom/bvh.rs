@@ -19,7 +19,7 @@ const WIDTH: usize = 4;
 /// (and its build time n log n).
 const SAH_DEPTH: u32 = 48;
 /// Waiting children a traversal keeps on the stack before spilling to the heap.
-const STACK: usize = 24;
+const STACK: usize = 12;
 
 /// A node of the binary build.
 #[derive(Clone, Copy, Debug)]
