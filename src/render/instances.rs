@@ -360,13 +360,8 @@ mod tests {
     use super::*;
     use crate::rng::Stream;
 
-    /// A beam hands a ray along its direction exactly the instances the hierarchy does, from
-    /// anywhere (inside the forest, above it, beside it), over a forest of scattered, turned,
-    /// scaled trees of two models, some overlapping.
-    #[test]
-    fn a_beam_meets_what_the_hierarchy_meets() {
-        let mut s = Stream::new(5, 0);
-        let mut u = || s.unit() as f32;
+    /// A forest of 400 scattered, turned, scaled trees of two models, some overlapping.
+    fn scattered_forest(u: &mut impl FnMut() -> f32) -> Instances {
         let list: Vec<TreeTransform> = (0..400)
             .map(|k| {
                 let angle = u() * std::f32::consts::TAU;
@@ -390,7 +385,16 @@ mod tests {
                 hi: Vec3::new(4.0, 6.0, 1.0),
             },
         ];
-        let instances = Instances::new(list, boxes, &[1.0, 1.0]);
+        Instances::new(list, boxes, &[1.0, 1.0])
+    }
+
+    /// A beam hands a ray along its direction exactly the instances the hierarchy does, from
+    /// anywhere (inside the forest, above it, beside it).
+    #[test]
+    fn a_beam_meets_what_the_hierarchy_meets() {
+        let mut s = Stream::new(5, 0);
+        let mut u = || s.unit() as f32;
+        let instances = scattered_forest(&mut u);
         let w = Vec3::new(0.4, 0.7, -0.3).normalize();
         let beam = Beam::new(&instances, w);
         let mut met = 0;
@@ -425,6 +429,45 @@ mod tests {
             });
             assert_eq!(by_tree, by_beam, "from {} to {t_max}", ray.origin);
             met += by_beam.len();
+        }
+        assert!(met > 1000, "the rays met {met} trees");
+    }
+
+    /// The front-to-back walk hands out every instance whose box the ray enters before
+    /// `t_max`, each once, in order of entry, with the interval [`Instances::interval`] gives.
+    #[test]
+    fn intervals_come_front_to_back_as_brute_force_finds_them() {
+        let mut s = Stream::new(6, 0);
+        let mut u = || s.unit() as f32;
+        let instances = scattered_forest(&mut u);
+        let mut met = 0;
+        for _ in 0..2000 {
+            let ray = Ray {
+                origin: Vec3::new(u() * 240.0 - 120.0, u() * 40.0 - 5.0, u() * 240.0 - 120.0),
+                dir: Vec3::new(u() - 0.5, u() - 0.6, u() - 0.5).normalize(),
+            };
+            let t_max = if u() < 0.5 { f32::INFINITY } else { u() * 80.0 };
+            let mut brute: Vec<(u32, f32, f32)> = (0..instances.len() as u32)
+                .filter_map(|i| {
+                    let (e, x) = instances.interval(i, &ray, t_max)?;
+                    Some((i, e, x))
+                })
+                .collect();
+            brute.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            let mut walked = Vec::new();
+            let mut intervals = instances.intervals(ray, t_max);
+            while let Some(t) = intervals.next_entry() {
+                while let Some(found) = intervals.next_entered(t) {
+                    walked.push(found);
+                }
+            }
+            assert!(
+                walked.windows(2).all(|w| w[0].1 <= w[1].1),
+                "in order of entry"
+            );
+            walked.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            assert_eq!(walked, brute, "from {} along {}", ray.origin, ray.dir);
+            met += walked.len();
         }
         assert!(met > 1000, "the rays met {met} trees");
     }
