@@ -71,6 +71,19 @@ fn at_least_one(s: &str) -> Result<u64, String> {
     }
 }
 
+/// A count of primitives one hierarchy holds (triangles, trees): at least 1, at most what its
+/// indices can address.
+fn primitive_count(s: &str) -> Result<u64, String> {
+    let v = at_least_one(s)?;
+    let most = texel_forest::geom::MAX_PRIMITIVES as u64;
+    if v > most {
+        return Err(format!(
+            "{v} is over {most}, the most one hierarchy can index"
+        ));
+    }
+    Ok(v)
+}
+
 fn positive(s: &str) -> Result<f64, String> {
     let v = number(s)?;
     if v > 0.0 {
@@ -254,10 +267,10 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().cells, value_parser = at_least_one)]
     pub max_cells: u64,
     /// Most triangles one glTF scene may have once every node is instanced.
-    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().triangles, value_parser = at_least_one)]
+    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().triangles, value_parser = primitive_count)]
     pub max_triangles: u64,
     /// Most trees one forest may have.
-    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().trees, value_parser = at_least_one)]
+    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().trees, value_parser = primitive_count)]
     pub max_trees: u64,
     /// Most pixels one image may have, read or written.
     #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().pixels, value_parser = at_least_one)]

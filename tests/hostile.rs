@@ -305,6 +305,17 @@ fn small_files_that_claim_much_are_refused_by_the_limits() {
         ),
         &["forest.instances", "over the limit of 10", "--max-trees"],
     );
+    // Nor can a limit be raised past what one hierarchy can index: a usage error, not a
+    // panic once a file that large is read.
+    for flag in ["--max-trees", "--max-triangles"] {
+        usage_error(
+            &run(
+                &["inspect", "forest.instances", flag, "600000000"],
+                dir.path(),
+            ),
+            "the most one hierarchy can index",
+        );
+    }
     // A species file that asks for forty million trees stops at the limit, not at the end.
     let mut dense: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("species.json")).unwrap()).unwrap();

@@ -197,7 +197,7 @@ impl Bvh {
         t_max: f32,
         mut test: impl FnMut(u32, f32) -> Option<f32>,
     ) -> f32 {
-        self.traverse_leaves(ray, t_min, t_max, |start, count, mut t_max| {
+        walk(&self.nodes, ray, t_min, t_max, |start, count, mut t_max| {
             let mut hit = None;
             for &p in &self.order[start as usize..(start + count) as usize] {
                 if let Some(t) = test(p, t_max) {
@@ -212,22 +212,9 @@ impl Bvh {
         })
     }
 
-    /// [`Bvh::traverse`] a leaf at a time: `test(start, count, t_max)` tests the primitives
-    /// `order[start..][..count]` together, for callers that keep a leaf's data as one packet.
-    pub fn traverse_leaves(
-        &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        test: impl FnMut(u32, u32, f32) -> Option<f32>,
-    ) -> f32 {
-        walk(&self.nodes, ray, t_min, t_max, test)
-    }
-
-    /// The same tree with its leaves numbered 0, 1, 2..., for a
-    /// caller that keeps each leaf's primitives together in an array of its own: a ray then
-    /// reaches a leaf's data in one fetch, not through [`Bvh::order`]. Returns each leaf's
-    /// primitives, by number.
+    /// The same tree with its leaves numbered 0, 1, 2..., for a caller that keeps each leaf's
+    /// primitives together in an array of its own: a ray then reaches a leaf's data in one
+    /// fetch, not through [`Bvh::order`]. Returns each leaf's primitives, by number.
     pub fn into_numbered_leaves(self) -> (NumberedLeaves, Vec<Vec<u32>>) {
         let Bvh {
             mut nodes,
@@ -260,7 +247,8 @@ impl NumberedLeaves {
         self.bounds
     }
 
-    /// [`Bvh::traverse_leaves`], with the leaf's number as `start`.
+    /// [`Bvh::traverse`] a leaf at a time: `test(leaf, count, t_max)` tests the leaf's
+    /// `count` primitives together, for callers that keep a leaf's data as one packet.
     pub fn traverse(
         &self,
         ray: &Ray,
@@ -344,6 +332,7 @@ fn walk(
 type Packed = u32;
 
 /// Primitives (and nodes) a tree may have: their indices fit a [`Packed`] beside a count.
+/// `--max-triangles` and `--max-trees` cannot go above it.
 pub const MAX_PRIMITIVES: usize = (1 << 29) - 1;
 
 fn pack(start: u32, count: u32) -> Packed {

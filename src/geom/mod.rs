@@ -10,7 +10,7 @@ mod triangles;
 
 pub use aabb::Aabb;
 pub use beam::Beam;
-pub use bvh::{Bvh, NodeContent, SlabRay};
+pub use bvh::{Bvh, MAX_PRIMITIVES, NodeContent, SlabRay};
 pub use offset::{barycentric_point, gamma, offset_origin};
 pub use triangle::{TriangleHit, intersect_triangle};
 pub use triangles::TriangleBvh;
