@@ -566,6 +566,18 @@ mod tests {
             .collect()
     }
 
+    /// `n` rays from points and in directions spread over the triangles' cube.
+    fn random_rays(seed: u64, n: usize) -> Vec<Ray> {
+        let mut s = Stream::new(seed, 0);
+        let mut r = || s.range(-10.0, 10.0) as f32;
+        (0..n)
+            .map(|_| Ray {
+                origin: Vec3::new(r(), r(), r()),
+                dir: Vec3::new(r(), r(), r()).normalize(),
+            })
+            .collect()
+    }
+
     fn brute(tris: &[[Vec3; 3]], ray: &Ray) -> f32 {
         tris.iter()
             .filter_map(|t| intersect_triangle(ray, *t, 0.0, f32::INFINITY))
@@ -584,13 +596,7 @@ mod tests {
         let tris = random_triangles(5, 500, 0.1);
         let boxes: Vec<Aabb> = tris.iter().map(|t| Aabb::of_points(t)).collect();
         let bvh = Bvh::build(&boxes);
-        let mut s = Stream::new(6, 0);
-        let mut r = || s.range(-10.0, 10.0) as f32;
-        for _ in 0..2000 {
-            let ray = Ray {
-                origin: Vec3::new(r(), r(), r()),
-                dir: Vec3::new(r(), r(), r()).normalize(),
-            };
+        for ray in random_rays(6, 2000) {
             assert_eq!(brute(&tris, &ray), nearest(&bvh, &tris, &ray));
         }
     }
@@ -635,13 +641,7 @@ mod tests {
         let mut all: Vec<u32> = leaves.iter().flatten().copied().collect();
         all.sort();
         assert_eq!(all, (0..tris.len() as u32).collect::<Vec<_>>());
-        let mut s = Stream::new(12, 0);
-        let mut r = || s.range(-10.0, 10.0) as f32;
-        for _ in 0..2000 {
-            let ray = Ray {
-                origin: Vec3::new(r(), r(), r()),
-                dir: Vec3::new(r(), r(), r()).normalize(),
-            };
+        for ray in random_rays(12, 2000) {
             let expected = brute(&tris, &ray);
             let by_leaf = numbered.traverse(&ray, 0.0, f32::INFINITY, |leaf, count, t_max| {
                 assert_eq!(count as usize, leaves[leaf as usize].len());
