@@ -266,56 +266,95 @@ impl Level {
     }
 }
 
-/// A level whose density queries skip empty space. Per cell `i`, it keeps whether the
-/// trilinear stencil whose lowest corner is `i` (the eight cells [`Level::trilinear`] reads at
-/// any point whose lower neighbours are `i`) holds density of either part. Trees are mostly
-/// air: a query that looks there first reads no cell of an empty stencil, whose density is
-/// exactly 0 whatever the weights.
-pub struct Sparse<'a> {
-    pub level: &'a Level,
-    stencils: Vec<bool>,
+/// Per cell `i` of a level, whether the trilinear stencil whose lowest corner is `i` (the
+/// eight cells [`Level::trilinear`] reads at any point whose lower neighbours are `i`) holds
+/// density of either part, one bit each. Trees are mostly air: a query that looks here first
+/// reads no cell of an empty stencil, whose density is exactly 0 whatever the weights.
+#[derive(Clone, Debug)]
+pub struct Stencils {
+    dims: [usize; 3],
+    bits: Vec<u64>,
 }
 
-impl<'a> Sparse<'a> {
-    pub fn new(level: &'a Level) -> Sparse<'a> {
+impl Stencils {
+    pub fn of(level: &Level) -> Stencils {
         let [nx, ny, nz] = level.dims;
         let filled = |i: usize| level.density[0][i] != 0.0 || level.density[1][i] != 0.0;
-        let mut stencils = vec![false; level.cell_count()];
+        let mut bits = vec![0u64; level.cell_count().div_ceil(64)];
         for z in 0..nz {
             for y in 0..ny {
                 for x in 0..nx {
-                    stencils[level.index(x, y, z)] = (z..=(z + 1).min(nz - 1)).any(|z| {
+                    let held = (z..=(z + 1).min(nz - 1)).any(|z| {
                         (y..=(y + 1).min(ny - 1)).any(|y| {
                             (x..=(x + 1).min(nx - 1)).any(|x| filled(level.index(x, y, z)))
                         })
                     });
+                    let i = level.index(x, y, z);
+                    bits[i / 64] |= u64::from(held) << (i % 64);
                 }
             }
         }
-        Sparse { level, stencils }
+        Stencils {
+            dims: level.dims,
+            bits,
+        }
+    }
+
+    /// Every stencil marked as holding density: queries that skip nothing.
+    pub fn full(level: &Level) -> Stencils {
+        Stencils {
+            dims: level.dims,
+            bits: vec![u64::MAX; level.cell_count().div_ceil(64)],
+        }
+    }
+
+    /// Whether the trilinear field can be non-zero at `c` (cell units from the grid origin):
+    /// false outside the grid (and at a non-finite point), where [`Level::trilinear`] reads
+    /// nothing, and where the stencil at `c` is empty.
+    #[inline]
+    pub fn holds(&self, c: Vec3) -> bool {
+        let d = self.dims;
+        let inside = c.is_finite()
+            && c.cmpge(Vec3::ZERO).all()
+            && c.x <= d[0] as f32
+            && c.y <= d[1] as f32
+            && c.z <= d[2] as f32;
+        if !inside {
+            return false;
+        }
+        let (x, y, z) = (
+            clamped_axis(c.x, d[0]).0,
+            clamped_axis(c.y, d[1]).0,
+            clamped_axis(c.z, d[2]).0,
+        );
+        let i = x + d[0] * (y + d[1] * z);
+        self.bits[i / 64] >> (i % 64) & 1 != 0
+    }
+}
+
+/// A level whose density queries skip empty space ([`Stencils`]).
+pub struct Sparse<'a> {
+    pub level: &'a Level,
+    stencils: Stencils,
+}
+
+impl<'a> Sparse<'a> {
+    pub fn new(level: &'a Level) -> Sparse<'a> {
+        Sparse {
+            level,
+            stencils: Stencils::of(level),
+        }
     }
 
     /// [`Level::density_at`], the same values bit for bit, without reading the cells of an
     /// empty stencil.
     #[inline]
     pub fn density_at(&self, c: Vec3) -> [f32; 2] {
-        let d = self.level.dims;
-        let lower = |v: f32, n: usize| ((v - 0.5).clamp(0.0, (n - 1) as f32) as usize).min(n - 1);
-        let inside = c.is_finite()
-            && c.cmpge(Vec3::ZERO).all()
-            && c.x <= d[0] as f32
-            && c.y <= d[1] as f32
-            && c.z <= d[2] as f32;
-        if inside
-            && !self.stencils[self.level.index(
-                lower(c.x, d[0]),
-                lower(c.y, d[1]),
-                lower(c.z, d[2]),
-            )]
-        {
-            return [0.0; 2];
+        if self.stencils.holds(c) {
+            self.level.density_at(c)
+        } else {
+            [0.0; 2]
         }
-        self.level.density_at(c)
     }
 }
 
@@ -345,6 +384,8 @@ pub struct Occupancy {
     /// Marched without looking at the bricks: every brick occupied (dense crowns), or so few
     /// bricks that a walk over them costs what it saves (coarse levels).
     full: bool,
+    /// Within occupied bricks, the cells a sample must read (`Stencils::holds`).
+    pub stencils: Stencils,
 }
 
 impl Occupancy {
@@ -377,6 +418,7 @@ impl Occupancy {
             dims,
             occupied,
             full,
+            stencils: Stencils::of(level),
         }
     }
 
@@ -387,6 +429,7 @@ impl Occupancy {
             dims,
             occupied: vec![true; dims.iter().product()],
             full: true,
+            stencils: Stencils::full(level),
         }
     }
 
@@ -611,7 +654,7 @@ mod tests {
 
     /// Skipping empty stencils changes no value: a sparse level (a few dense cells, one of
     /// them at a corner, one of wood alone) answers exactly as the level does, everywhere in
-    /// and around its box.
+    /// and around its box, and a full set of stencils holds wherever the level is read.
     #[test]
     fn sparse_queries_equal_the_levels_bit_for_bit() {
         let mut l = Level::empty([7, 5, 6], 0.25);
@@ -633,6 +676,15 @@ mod tests {
             );
             let (a, b) = (l.density_at(c), sparse.density_at(c));
             assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "at {c}");
+            // What a view ray's sample skips when the stencil is empty is exactly nothing.
+            if !sparse.stencils.holds(c) {
+                assert_eq!(l.fetch(c).density, [0.0; 2], "at {c}");
+            }
+            assert_eq!(
+                Stencils::full(&l).holds(c),
+                l.trilinear(c).is_some(),
+                "at {c}"
+            );
             skipped += usize::from(a == [0.0; 2]);
         }
         assert!(skipped > 10_000, "mostly empty: {skipped}");

@@ -133,13 +133,13 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
             rng::hash3(key, segment, purpose::SEGMENT_JITTER),
         );
         segment += 1;
-        out.samples += 1;
         let cell_here = walk
             .active
             .iter()
             .map(|a| a.step)
             .fold(f32::INFINITY, f32::min);
         let m = mix(scene, &walk.active, ts);
+        out.samples += u32::from(m.read);
         let sigma = m.sigma();
         let length = end - t;
         t = end;
@@ -328,6 +328,8 @@ struct Mix {
     gradient: Vec3,
     gradient_wood: Vec3,
     densest: (f32, u16),
+    /// Whether any texture was read: a step where every stencil is empty reads none.
+    read: bool,
 }
 
 impl Mix {
@@ -346,12 +348,19 @@ fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
         gradient: Vec3::ZERO,
         gradient_wood: Vec3::ZERO,
         densest: (0.0, 0),
+        read: false,
     };
     for a in active {
+        let c = a.c0 + a.dc * ts;
+        // Most steps through a crown are in air: one bit says so without reading a cell.
+        if !scene.occupancy[a.model as usize][a.level].stencils.holds(c) {
+            continue;
+        }
+        m.read = true;
         let inst = scene.instances.get(a.instance);
         let look = &scene.looks[inst.look as usize];
         let level = &scene.texels[look.texel].levels[a.level];
-        let f = level.fetch(a.c0 + a.dc * ts);
+        let f = level.fetch(c);
         let (wood, foliage) = (
             a.sigma_scale * f.density[0],
             a.sigma_scale * look.foliage * f.density[1],

@@ -26,7 +26,9 @@ pub struct Radiance {
     pub mesh_canopy: f32,
     /// Species index + 1 of the densest tree at the surface, 0 for terrain or sky.
     pub species: f32,
-    /// Work done: volume samples along the ray, and shadow rays cast from it.
+    /// Work done: volume samples along the ray (steps that read a texture: a step where every
+    /// texture's trilinear stencil is empty reads nothing and is not one), and shadow rays
+    /// cast from it.
     pub samples: u32,
     pub shadow_rays: u32,
 }
