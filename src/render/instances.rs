@@ -101,6 +101,10 @@ pub struct Instances {
     /// Per model: its box's centre and its finest cell (m), which pick how the hybrid method
     /// draws an instance.
     model_lod: Vec<(Vec3, f32)>,
+    /// Over all instances: the largest finest cell (m) and the largest distance from a box's
+    /// centre to its corners (m), which bound how far from the eye the hybrid method can draw
+    /// any tree as a model.
+    largest: (f32, f32),
     bvh: Bvh,
 }
 
@@ -116,13 +120,28 @@ impl Instances {
             .iter()
             .zip(model_cells)
             .map(|(b, &cell)| (b.centre(), cell))
-            .collect();
+            .collect::<Vec<_>>();
+        let largest = list.iter().fold((0.0f32, 0.0f32), |(cell, radius), i| {
+            let m = i.model as usize;
+            let b = model_boxes[m];
+            (
+                cell.max(model_cells[m] * i.scale),
+                radius.max((b.hi - b.lo).length() * 0.5 * i.scale),
+            )
+        });
         Instances {
             bvh: Bvh::build(&boxes),
             list,
             model_boxes,
             model_lod,
+            largest,
         }
+    }
+
+    /// The largest finest cell of any instance (m), and the largest distance from an
+    /// instance's box centre to its corners (m).
+    pub fn largest(&self) -> (f32, f32) {
+        self.largest
     }
 
     /// The corners of instance `i`'s model box, placed in the world.

@@ -78,6 +78,29 @@ impl Draw {
         }
     }
 
+    /// How far from the eye (the frame's origin) a ray of this sample can meet a tree drawn
+    /// from its model: beyond it every tree is a texture, so a search for models' surfaces
+    /// need not look there.
+    pub fn model_horizon(&self, scene: &Scene) -> f32 {
+        match *self {
+            Draw::Texel => 0.0,
+            Draw::Mesh => f32::INFINITY,
+            Draw::Hybrid { lod, spread, .. } => {
+                // A tree is a model only while its centre is nearer than hi x cell / spread
+                // (`texel_probability`); its box reaches a radius further. The margin covers
+                // rounding.
+                let (cell, radius) = scene.instances.largest();
+                let (_, hi) = lod.ends();
+                let centre = hi * cell / spread;
+                if centre.is_finite() {
+                    (centre + radius) * 1.001 + 1e-3
+                } else {
+                    f32::INFINITY
+                }
+            }
+        }
+    }
+
     /// Whether instance `i` is drawn from its texture for this sample.
     #[inline]
     pub fn texel(&self, scene: &Scene, i: u32) -> bool {

@@ -48,7 +48,9 @@ fn tree_of<'a>(scene: &'a Scene, inst: &TreeTransform) -> &'a TreeMesh {
 }
 
 /// The nearest surface along `ray` before `t_max` of the trees `draw` draws as models, and
-/// whether the ray enters the box of a tree it draws as a texture before that surface.
+/// whether the ray may enter the box of a tree it draws as a texture before that surface:
+/// it does if one was met, or may where no surface was found before the model horizon
+/// ([`Draw::model_horizon`]), beyond which the search does not look.
 pub(super) fn nearest_drawn(
     scene: &Scene,
     ray: &Ray,
@@ -57,18 +59,24 @@ pub(super) fn nearest_drawn(
     draw: &Draw,
 ) -> (Option<TreeHit>, bool) {
     let mut texture = f32::INFINITY;
-    let hit = scene.instances.nearest(ray, t_max, |i, local, t_max| {
-        if draw.texel(scene, i) {
-            if let Some((enter, _)) = scene.instances.local_interval(i, local, t_max) {
-                texture = texture.min(enter);
+    // Past the horizon every tree is a texture: the search stops there (in a far view, at
+    // once), and the texture walk is left to find whatever lies beyond.
+    let horizon = draw.model_horizon(scene);
+    let hit = scene
+        .instances
+        .nearest(ray, t_max.min(horizon), |i, local, t_max| {
+            if draw.texel(scene, i) {
+                if let Some((enter, _)) = scene.instances.local_interval(i, local, t_max) {
+                    texture = texture.min(enter);
+                }
+                return None;
             }
-            return None;
-        }
-        hit_instance(scene, i, local, t_max, key).map(|h| (h.hit.t, h))
-    });
+            hit_instance(scene, i, local, t_max, key).map(|h| (h.hit.t, h))
+        });
     let hit = hit.map(|(_, h)| h);
     let end = hit.as_ref().map_or(t_max, |h| h.hit.t);
-    (hit, texture < end)
+    let beyond = hit.is_none() && horizon < t_max;
+    (hit, texture < end || beyond)
 }
 
 /// The nearest surface of instance `i`'s model along `local` (the ray in its model space)
