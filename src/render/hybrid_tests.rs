@@ -261,3 +261,80 @@ fn textures_composite_over_meshes_in_depth_order() {
     assert_eq!((r.samples, r.mesh_canopy), (0, 1.0));
     assert!((r.distance - 10.0).abs() < 1e-4, "{r:?}");
 }
+
+/// The hybrid method looks for the models' surfaces only up to the model horizon: every tree
+/// it may draw as a model (texture probability below one) lies wholly within it, whatever
+/// the tree's turn and scale, for footprints from fine to coarse and any band; so the search
+/// stopping there misses no surface. And the horizon is not a bound that never bites: at the
+/// coarser footprints some trees lie beyond it.
+#[test]
+fn every_tree_drawn_as_a_model_lies_within_the_model_horizon() {
+    let (texel, mesh) = boxed_tree();
+    let mut s = crate::rng::Stream::new(5, 0);
+    let mut u = || s.unit();
+    let trees: Vec<Placed> = (0..300)
+        .map(|_| Placed {
+            look: 0,
+            position: DVec3::new(u() * 400.0 - 200.0, u() * 10.0, u() * 400.0 - 200.0),
+            rotation: (u() * std::f64::consts::TAU) as f32,
+            scale: (0.3 + u() * 3.0) as f32,
+        })
+        .collect();
+    let scene = Scene::new(
+        DVec3::new(3.0, 4.0, -2.0),
+        vec![texel],
+        vec![look()],
+        &trees,
+        None,
+        Lighting {
+            sun: HEAD_ON,
+            shading: Shading::default(),
+            sky: None,
+        },
+    )
+    .with_meshes(vec![mesh]);
+    let mut beyond = 0;
+    for spread in [1e-4f32, 1e-3, 4e-3, 2e-2] {
+        for lod in [
+            Lod::default(),
+            Lod {
+                switch: 4.0,
+                band: 0.0,
+            },
+            Lod {
+                switch: 0.5,
+                band: 3.0,
+            },
+        ] {
+            let draw = Draw::Hybrid {
+                lod,
+                spread,
+                key: 0,
+            };
+            let horizon = draw.model_horizon(&scene);
+            for i in 0..scene.instances.len() as u32 {
+                let (centre, _) = scene.instances.centre_and_cell(i);
+                if Draw::texel_probability(&scene, &lod, spread, i) >= 1.0 {
+                    beyond += usize::from(centre.length() > horizon);
+                    continue;
+                }
+                // Rays from the eye through the box, centre and scattered about it.
+                for k in 0..16 {
+                    let jitter = Vec3::new(u() as f32, u() as f32, u() as f32) - 0.5;
+                    let aim = centre + jitter * if k == 0 { 0.0 } else { 6.0 };
+                    let ray = crate::geom::Ray {
+                        origin: Vec3::ZERO,
+                        dir: aim.normalize(),
+                    };
+                    if let Some((_, exit)) = scene.instances.interval(i, &ray, f32::INFINITY) {
+                        assert!(
+                            exit <= horizon,
+                            "tree {i} leaves at {exit}, horizon {horizon}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert!(beyond > 100, "{beyond}");
+}
