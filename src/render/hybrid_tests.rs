@@ -229,11 +229,7 @@ fn textures_composite_over_meshes_in_depth_order() {
         switch: 0.12,
         band: 0.0,
     };
-    let draw = Draw::Hybrid {
-        lod,
-        spread,
-        key: 1,
-    };
+    let draw = Draw::hybrid(lod, spread, 1);
     let march = March {
         cutoff: 0.0,
         ..March::default()
@@ -312,11 +308,7 @@ fn every_tree_drawn_as_a_model_lies_within_the_model_horizon() {
                 band: 3.0,
             },
         ] {
-            let draw = Draw::Hybrid {
-                lod,
-                spread,
-                key: 0,
-            };
+            let draw = Draw::hybrid(lod, spread, 0);
             let horizon = draw.model_horizon(&scene);
             for i in 0..scene.instances.len() as u32 {
                 let (centre, _) = scene.instances.centre_and_cell(i);

@@ -68,7 +68,7 @@ pub fn hybrid(
         spread,
         key,
         march,
-        Draw::Hybrid { lod, spread, key },
+        Draw::hybrid(lod, spread, key),
     )
 }
 

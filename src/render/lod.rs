@@ -48,6 +48,8 @@ pub enum Draw {
         spread: f32,
         /// The sample's key: the choice's draws.
         key: u64,
+        /// `lod`'s band ends ([`Lod::ends`]), worked out once per sample, not once per tree.
+        ends: (f32, f32),
     },
 }
 
@@ -64,18 +66,35 @@ impl Draw {
     /// The probability that instance `i` is drawn as texture for a footprint of `spread` per
     /// metre of distance.
     pub fn texel_probability(scene: &Scene, lod: &Lod, spread: f32, i: u32) -> f32 {
-        let (centre, cell) = scene.instances.centre_and_cell(i);
-        let cells = centre.length() * spread / cell;
-        // Most trees lie outside the band, which needs no logarithm; a hard switch is all
-        // outside. 0 cells (the eye at the tree's centre) is the finest drawing, the model.
-        let (lo, hi) = lod.ends();
-        if cells >= hi {
-            1.0
-        } else if cells <= lo {
-            0.0
-        } else {
-            ((cells / lod.switch).log2() / lod.band + 0.5).clamp(0.0, 1.0)
+        Self::probability(scene, lod, lod.ends(), spread, i)
+    }
+
+    /// A sample's hybrid drawing, for a footprint of `spread` per metre of distance.
+    pub fn hybrid(lod: Lod, spread: f32, key: u64) -> Draw {
+        Draw::Hybrid {
+            lod,
+            spread,
+            key,
+            ends: lod.ends(),
         }
+    }
+
+    /// [`Draw::texel_probability`] with the band's ends given.
+    #[inline]
+    fn probability(scene: &Scene, lod: &Lod, (lo, hi): (f32, f32), spread: f32, i: u32) -> f32 {
+        let (centre, cell) = scene.instances.centre_and_cell(i);
+        // Most trees lie outside the band, which needs no logarithm (a hard switch is all
+        // outside), nor a square root: the distance is compared squared with the band's ends.
+        // 0 cells (the eye at the tree's centre) is the finest drawing, the model.
+        let squared = centre.length_squared() * (spread * spread);
+        if squared >= (hi * cell) * (hi * cell) {
+            return 1.0;
+        }
+        if squared <= (lo * cell) * (lo * cell) {
+            return 0.0;
+        }
+        let cells = centre.length() * spread / cell;
+        ((cells / lod.switch).log2() / lod.band + 0.5).clamp(0.0, 1.0)
     }
 
     /// How far from the eye (the frame's origin) a ray of this sample can meet a tree drawn
@@ -85,12 +104,15 @@ impl Draw {
         match *self {
             Draw::Texel => 0.0,
             Draw::Mesh => f32::INFINITY,
-            Draw::Hybrid { lod, spread, .. } => {
+            Draw::Hybrid {
+                spread,
+                ends: (_, hi),
+                ..
+            } => {
                 // A tree is a model only while its centre is nearer than hi x cell / spread
                 // (`texel_probability`); its box reaches a radius further. The margin covers
                 // rounding.
                 let (cell, radius) = scene.instances.largest();
-                let (_, hi) = lod.ends();
                 let centre = hi * cell / spread;
                 if centre.is_finite() {
                     (centre + radius) * 1.001 + 1e-3
@@ -107,8 +129,13 @@ impl Draw {
         match *self {
             Draw::Texel => true,
             Draw::Mesh => false,
-            Draw::Hybrid { lod, spread, key } => {
-                let p = Self::texel_probability(scene, &lod, spread, i);
+            Draw::Hybrid {
+                lod,
+                spread,
+                key,
+                ends,
+            } => {
+                let p = Self::probability(scene, &lod, ends, spread, i);
                 p >= 1.0
                     || (p > 0.0
                         && (rng::unit(rng::hash3(key, u64::from(i), purpose::LOD)) as f32) < p)
