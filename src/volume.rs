@@ -330,6 +330,17 @@ impl Stencils {
         let i = x + d[0] * (y + d[1] * z);
         self.bits[i / 64] >> (i % 64) & 1 != 0
     }
+
+    /// [`Level::density_at`] of the `level` these stencils are of, the same values bit for
+    /// bit, without reading the cells of an empty stencil.
+    #[inline]
+    pub fn density_at(&self, level: &Level, c: Vec3) -> [f32; 2] {
+        if self.holds(c) {
+            level.density_at(c)
+        } else {
+            [0.0; 2]
+        }
+    }
 }
 
 /// A level whose density queries skip empty space ([`Stencils`]).
@@ -350,11 +361,7 @@ impl<'a> Sparse<'a> {
     /// empty stencil.
     #[inline]
     pub fn density_at(&self, c: Vec3) -> [f32; 2] {
-        if self.stencils.holds(c) {
-            self.level.density_at(c)
-        } else {
-            [0.0; 2]
-        }
+        self.stencils.density_at(self.level, c)
     }
 }
 

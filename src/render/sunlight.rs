@@ -135,11 +135,8 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                     exit
                 };
                 let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
-                let c = a.c0 + a.dc * ts;
-                if occupancy.stencils.holds(c) {
-                    let d = level.density_at(c);
-                    depth += sigma_scale * (d[0] + foliage * d[1]) * (end - t);
-                }
+                let d = occupancy.stencils.density_at(level, a.c0 + a.dc * ts);
+                depth += sigma_scale * (d[0] + foliage * d[1]) * (end - t);
                 if depth > opaque {
                     // Stops the traversal: nothing further can make the light visible.
                     return Some(0.0);
