@@ -10,7 +10,7 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
            $(OUT)/trees/$(t)-projection-z.png $(OUT)/trees/$(t)-projection-y.png \
            $(OUT)/trees/$(t)-slice-y10.png)
 
-.PHONY: demo test bench accuracy report budget fixtures formats-check clean FORCE
+.PHONY: demo test bench accuracy report budget fixtures formats-check animation clean FORCE
 .DELETE_ON_ERROR:
 
 FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
@@ -39,6 +39,19 @@ report: $(TEXEL)
 # (report/error_budget.*; part of `make report`).
 budget: $(TEXEL)
 	$(CARGO) run --release --example report -- --budget
+
+# The fly-in: the demo forest from the far view down to a near one (fixtures/paths/flyin.json,
+# 4 s at 12 frames a second: 49 frames), drawn by the hybrid method, into out/flyin/ with an
+# animated preview. Each frame is its own file and the same bytes however the frames are
+# split between runs (`--frames A..B`). (`#` stays in the recipe: in a variable it starts a
+# comment.)
+animation: $(OUT)/flyin.png
+
+$(OUT)/flyin.png: $(OUT)/forest.instances fixtures/paths/flyin.json $(TEXEL)
+	$(TEXEL) render $< --camera-path fixtures/paths/flyin.json --fps 12 --method hybrid \
+	    --width 640 --height 360 --aov canopy,lod -o $(OUT)/flyin/frame.####.exr \
+	    --preview $(OUT)/flyin/frame.####.png --depfile $(OUT)/flyin/frames.d
+	$(TEXEL) animate $(OUT)/flyin/frame.*.png -o $@ --fps 12
 
 # Regenerates the procedural fixtures and the golden .texel; tests check they match.
 fixtures:

@@ -165,6 +165,37 @@ pub fn slice(s: &str) -> Result<(usize, usize), String> {
     Ok((axis, index.trim().parse().map_err(|_| bad())?))
 }
 
+/// Most frames one sequence may hold: hours of film at 24 frames a second.
+pub const MAX_FRAMES: u32 = 1_000_000;
+
+/// `A..B` (inclusive) or `N`: whole, non-negative frame numbers, A <= B, at most
+/// [`MAX_FRAMES`] of them.
+pub fn frames(s: &str) -> Result<(u32, u32), String> {
+    let whole = |p: &str| {
+        p.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("{p:?} is not a whole, non-negative frame number"))
+    };
+    let (a, b) = match s.split_once("..") {
+        Some((a, b)) => (whole(a)?, whole(b.strip_prefix('=').unwrap_or(b))?),
+        None => {
+            let n = whole(s)?;
+            (n, n)
+        }
+    };
+    if a > b {
+        return Err(format!("the first frame {a} is after the last {b}"));
+    }
+    if b - a >= MAX_FRAMES {
+        return Err(format!("more than {MAX_FRAMES} frames"));
+    }
+    Ok((a, b))
+}
+
+fn frame_rate(s: &str) -> Result<f64, String> {
+    within(s, 1e-3, 1e4, "frames per second")
+}
+
 fn day(s: &str) -> Result<f64, String> {
     within(s, 1.0, 366.0, "a day of the year")
 }
@@ -293,6 +324,24 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Measure the error of one render against a reference render.
     Compare(CompareArgs),
+    /// Assemble a frame sequence's previews (PNG) into one animated PNG.
+    Animate(AnimateArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct AnimateArgs {
+    /// The frames, in the order shown (e.g. `out/flyin/frame.*.png`, which the shell sorts).
+    #[arg(required = true, value_name = "FRAME.png")]
+    pub frames: Vec<PathBuf>,
+    /// The animated PNG to write (APNG: every frame whole, looping).
+    #[arg(short, long, value_name = "FILE.png")]
+    pub output: PathBuf,
+    /// Frames per second.
+    #[arg(long, default_value_t = 24.0, value_name = "FPS", value_parser = frame_rate)]
+    pub fps: f64,
+    /// Scale every frame to this width (the height in proportion), for a small preview.
+    #[arg(long, value_name = "PIXELS", value_parser = clap::value_parser!(u32).range(1..=65535))]
+    pub width: Option<u32>,
 }
 
 #[derive(Args, Debug)]
@@ -350,6 +399,20 @@ pub struct RenderArgs {
     /// A glTF file holding the camera named by --camera (and lights).
     #[arg(long, value_name = "FILE")]
     pub camera_file: Option<PathBuf>,
+    /// A moving camera: a keyframe file (`.json`, formats/camera-path.md) or a glTF with an
+    /// animated camera (the one --camera names, else the first an animation moves). Renders a
+    /// frame sequence: --frames, or every frame of the path at --fps.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["eye", "target", "camera_file"])]
+    pub camera_path: Option<PathBuf>,
+    /// Frames to render, `A..B` (inclusive) or `N`, at times frame / --fps: each to -o (and
+    /// --preview) with the frame number in place of the `#`s of the file name, zero-padded to
+    /// their count (frame.####.exr). Each frame draws its own noise and is the same bytes
+    /// whichever frames are rendered with it.
+    #[arg(long, value_name = "A..B", value_parser = frames)]
+    pub frames: Option<(u32, u32)>,
+    /// Frames per second of --frames.
+    #[arg(long, default_value_t = 24.0, value_name = "FPS", value_parser = frame_rate)]
+    pub fps: f64,
     /// Eye position (world metres).
     #[arg(
         long,

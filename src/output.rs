@@ -352,7 +352,13 @@ fn make_escape(path: &Path) -> String {
 
 /// A Make dependency rule: `target: dep dep ...`, one line, newline-terminated.
 pub fn depfile(target: &Path, dependencies: &[PathBuf]) -> String {
-    let mut line = format!("{}:", make_escape(target));
+    depfile_for(&[target], dependencies)
+}
+
+/// [`depfile`] of several targets made by one run (a frame sequence): `a b c: dep dep ...`.
+pub fn depfile_for(targets: &[&Path], dependencies: &[PathBuf]) -> String {
+    let names: Vec<String> = targets.iter().map(|t| make_escape(t)).collect();
+    let mut line = format!("{}:", names.join(" "));
     for d in dependencies {
         line.push(' ');
         line.push_str(&make_escape(d));

@@ -30,6 +30,8 @@ pub mod purpose {
     // Rendering: `hash3(pixel key, sample, 0)` keys a sample; its ray's key is mixed from it.
     /// A pixel's stream: `hash3(seed, y << 32 | x, PIXEL)`.
     pub const PIXEL: u64 = 0x0070_6978;
+    /// A frame of a sequence: its seed.
+    pub const FRAME: u64 = 0x0066_7261_6d65;
     /// XOR-ed into a sample's key to key its ray.
     pub const RAY: u64 = 0x5a;
     /// Per view-ray segment `hash3(ray key, segment, ..)`: where in the segment the sample is,

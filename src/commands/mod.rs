@@ -1,5 +1,6 @@
 //! One module per subcommand: read the inputs, call the library, write the outputs.
 
+mod animate;
 mod bake;
 mod compare;
 mod inspect;
@@ -24,6 +25,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(&args, &limits, cli.quiet),
         Command::Inspect(args) => inspect::run(&args, &limits),
         Command::Compare(args) => compare::run(&args, &limits),
+        Command::Animate(args) => animate::run(&args, &limits, cli.quiet),
     }
 }
 

@@ -1,6 +1,7 @@
 //! `texel render`: forest + texels + terrain -> OpenEXR (and a preview).
 
 use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::bail;
@@ -8,106 +9,231 @@ use glam::{DVec3, Vec3};
 
 use texel_forest::import;
 use texel_forest::limits::{Limits, check_memory};
-use texel_forest::output::{OutputId, Outputs, depfile};
+use texel_forest::output::{Outputs, depfile_for};
+use texel_forest::render::camera_path::CameraPath;
 use texel_forest::render::load::{self, LoadedScene, SceneRequest};
 use texel_forest::render::{
     self, Aovs, Camera, Film, Lighting, Lod, March, Method, RenderSettings, Shading, ShadowRays,
     film,
     view::{self, CameraChoice},
 };
+use texel_forest::rng;
 
 use crate::cli::{AovArg, MethodArg, RenderArgs, ShadowsArg};
 
-/// The outputs a render writes, planned before anything is read.
-struct Planned {
-    outputs: Outputs,
-    exr: OutputId,
-    preview: Option<OutputId>,
-    depfile: Option<OutputId>,
+/// One image a run renders: a still, or one frame of a sequence.
+struct Shot {
+    /// The frame number, for a sequence.
+    frame: Option<u32>,
+    exr: PathBuf,
+    preview: Option<PathBuf>,
 }
 
 pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> {
     let start = Instant::now();
-    let mut planned = plan(args, limits)?;
-    let scene = load::load(&SceneRequest {
+    let path = args
+        .camera_path
+        .as_ref()
+        .map(|p| CameraPath::load(p, args.camera.as_deref(), limits))
+        .transpose()?;
+    if let Some((CameraPath::Gltf(a), _)) = &path {
+        for w in &a.warnings {
+            super::warn(w);
+        }
+    }
+    let shots = shots(args, path.as_ref().map(|(p, _)| p))?;
+    let mut planned = plan(args, limits, &shots)?;
+    let loaded = load::load(&SceneRequest {
         forest: &args.instances,
         terrain: args.terrain.as_deref(),
         day: args.day,
         meshes: args.method != MethodArg::Texel,
         limits: *limits,
     })?;
-    let mut dependencies = scene.dependencies.clone();
-    planned.outputs.add_inputs(&dependencies)?;
+    let mut dependencies = loaded.dependencies.clone();
+    planned.add_inputs(&dependencies)?;
     let views = match &args.camera_file {
         Some(p) => {
             dependencies.push(p.clone());
             import::load_with(p, limits)?
         }
-        None => scene.terrain.clone(),
+        None => loaded.terrain.clone(),
     };
-    let camera = camera(args, &scene, &views)?;
-    let trees = scene.forest.instances.len();
+    if let Some((_, files)) = &path {
+        dependencies.extend(files.iter().cloned());
+    }
+    let still = match &path {
+        Some(_) => None,
+        None => Some(camera(args, &loaded, &views)?),
+    };
     let lighting = Lighting {
         sun: view::sun(args.sun, &views.suns),
         shading: Shading::default(),
         sky: args.sky.map(|s| DVec3::from(s).as_vec3()),
     };
-    let build_start = Instant::now();
-    let mut scene = scene.into_scene(camera.eye, lighting);
-    let build = build_start.elapsed().as_secs_f64();
-    scene.shadows = !args.no_shadows;
-
-    let pixels = args.crop.map_or(
-        u64::from(args.width) * u64::from(args.height),
-        |[x0, y0, x1, y1]| u64::from(x1 - x0) * u64::from(y1 - y0),
-    );
-    let bar = progress_bar(pixels, quiet);
-    let render_start = Instant::now();
-    let film = render::render(&scene, &camera, &settings(args), &|n| bar.inc(n));
-    bar.finish_and_clear();
-    let seconds = render_start.elapsed().as_secs_f64();
-
-    write(args, planned, &film, &camera, &dependencies)?;
-    if !quiet {
-        let rays = pixels * u64::from(args.spp);
-        let (samples, shadow_rays) = film.work();
-        let (drawn_from, work) = match args.method {
-            MethodArg::Texel => (
-                "textures",
-                format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
-            ),
-            MethodArg::Mesh => ("meshes", format!("{shadow_rays:.1} shadow rays per pixel")),
-            MethodArg::Hybrid => (
-                "meshes and textures",
-                format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
-            ),
+    let size = (args.width, args.height);
+    let sequence = shots.len() > 1 || shots[0].frame.is_some();
+    let mut loaded = Some(loaded);
+    // The sun-depth grids do not depend on the eye: built once for the whole sequence.
+    let mut grids = None;
+    for (n, shot) in shots.iter().enumerate() {
+        let camera = match (&path, still) {
+            (Some((p, _)), _) => {
+                let time = f64::from(shot.frame.unwrap_or(0)) / args.fps;
+                let c = p
+                    .camera(time, args.fov, view::DEFAULT_FOV, size)
+                    .map_err(|e| anyhow::anyhow!("frame {}: {e}", shot.frame.unwrap_or(0)))?;
+                if let Some(l) = &loaded {
+                    warn_underground(l, &c);
+                }
+                c
+            }
+            (None, Some(c)) => c,
+            (None, None) => unreachable!("a still camera is made wherever there is no path"),
         };
-        let (grids, bytes) = scene.sun_depth.built();
-        let work = if grids > 0 {
-            format!(
-                "{work}, {grids} sun-depth grids ({:.1} MiB)",
-                bytes as f64 / f64::from(1 << 20)
-            )
+        let build_start = Instant::now();
+        // The last shot may take what was loaded; earlier ones build from a copy, each frame's
+        // scene being in the frame of its own eye.
+        let mut scene = if n + 1 == shots.len() {
+            loaded
+                .take()
+                .map(|l| l.into_scene(camera.eye, lighting))
+                .ok_or_else(|| anyhow::anyhow!("the scene was already used"))?
         } else {
-            work
+            loaded
+                .as_ref()
+                .map(|l| l.scene(camera.eye, lighting))
+                .ok_or_else(|| anyhow::anyhow!("the scene was already used"))?
         };
-        let memory = texel_forest::limits::peak_memory()
-            .map_or(String::new(), |b| format!(", peak memory {} MiB", b >> 20));
-        super::summary(&format!(
-            "rendered {trees} trees from their {drawn_from}, {}x{} ({pixels} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} (scene built in {build:.2} s, {:.2} s in all{memory})",
-            args.width,
-            args.height,
-            args.spp,
-            rays as f64 / seconds,
-            args.output.display(),
-            start.elapsed().as_secs_f64()
-        ));
+        if let Some(grids) = grids.take() {
+            scene.reuse_sun_depth(grids);
+        }
+        let build = build_start.elapsed().as_secs_f64();
+        scene.shadows = !args.no_shadows;
+        let mut settings = settings(args);
+        if let Some(f) = shot.frame {
+            // Each frame its own noise, and the same whichever frames render with it.
+            settings.seed = rng::hash3(args.seed, u64::from(f), rng::purpose::FRAME);
+        }
+        let pixels = args.crop.map_or(
+            u64::from(args.width) * u64::from(args.height),
+            |[x0, y0, x1, y1]| u64::from(x1 - x0) * u64::from(y1 - y0),
+        );
+        let bar = progress_bar(pixels, quiet);
+        let render_start = Instant::now();
+        let film = render::render(&scene, &camera, &settings, &|n| bar.inc(n));
+        bar.finish_and_clear();
+        let seconds = render_start.elapsed().as_secs_f64();
+
+        let depfile = (n + 1 == shots.len())
+            .then_some(args.depfile.as_ref())
+            .flatten()
+            .map(|d| {
+                let targets: Vec<&Path> = shots.iter().map(|s| s.exr.as_path()).collect();
+                (d.as_path(), depfile_for(&targets, &dependencies))
+            });
+        write(args, shot, &film, &camera, &dependencies, depfile)?;
+        if !quiet {
+            let what = if sequence {
+                format!("frame {}: ", shot.frame.unwrap_or(0))
+            } else {
+                String::new()
+            };
+            summary(
+                args,
+                &scene,
+                &film,
+                &shot.exr,
+                (seconds, build),
+                start,
+                &what,
+            );
+        }
     }
     Ok(())
 }
 
-/// Checks the frame's size and plans every output, before anything is read.
-fn plan(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Planned> {
+/// The images to render: one still, or the frames of `--frames` (else every frame of the
+/// camera path at `--fps`), each with its file names.
+fn shots(args: &RenderArgs, path: Option<&CameraPath>) -> anyhow::Result<Vec<Shot>> {
+    let frames = match (args.frames, path) {
+        (Some((a, b)), _) => a..=b,
+        (None, Some(p)) => {
+            let (first, last) = p.span();
+            let (a, b) = ((first * args.fps).ceil(), (last * args.fps).floor());
+            if a < 0.0 {
+                bail!(
+                    "--camera-path {}: starts at {first} s, before time 0; give --frames",
+                    args.camera_path
+                        .as_deref()
+                        .unwrap_or(Path::new(""))
+                        .display()
+                );
+            }
+            if b - a >= f64::from(crate::cli::MAX_FRAMES) {
+                bail!(
+                    "--camera-path {}: more than {} frames at {} fps; give --frames",
+                    args.camera_path
+                        .as_deref()
+                        .unwrap_or(Path::new(""))
+                        .display(),
+                    crate::cli::MAX_FRAMES,
+                    args.fps
+                );
+            }
+            // A path shorter than a frame is one frame, at its start.
+            (a as u32)..=(b.max(a) as u32)
+        }
+        (None, None) => {
+            return Ok(vec![Shot {
+                frame: None,
+                exr: args.output.clone(),
+                preview: args.preview.clone(),
+            }]);
+        }
+    };
+    let count = (frames.end() - frames.start()) as usize + 1;
+    frames
+        .map(|f| {
+            Ok(Shot {
+                frame: Some(f),
+                exr: numbered("-o", &args.output, f, count)?,
+                preview: args
+                    .preview
+                    .as_ref()
+                    .map(|p| numbered("--preview", p, f, count))
+                    .transpose()?,
+            })
+        })
+        .collect()
+}
+
+/// `path` with the last run of `#`s in its file name replaced by `frame`, zero-padded to
+/// their count; a name without `#`s is kept for a sequence of one frame and refused for more.
+fn numbered(flag: &str, path: &Path, frame: u32, count: usize) -> anyhow::Result<PathBuf> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let Some(end) = name.rfind('#') else {
+        if count == 1 {
+            return Ok(path.to_path_buf());
+        }
+        bail!(
+            "{flag} {}: a sequence of {count} frames needs #s in the file name where the frame number goes (e.g. frame.####.exr)",
+            path.display()
+        );
+    };
+    let begin = name[..end].rfind(|c| c != '#').map_or(0, |i| i + 1);
+    let digits = end + 1 - begin;
+    let file = format!("{}{frame:0digits$}{}", &name[..begin], &name[end + 1..]);
+    Ok(path.with_file_name(file))
+}
+
+/// Checks the frame's size and every output of every shot, before anything is read: the
+/// outputs planned (to check against the inputs found while loading; each shot commits its
+/// own).
+fn plan(args: &RenderArgs, limits: &Limits, shots: &[Shot]) -> anyhow::Result<Outputs> {
     let pixels = u64::from(args.width) * u64::from(args.height);
     limits.check_pixels(pixels, "--width x --height")?;
     check_memory(
@@ -123,27 +249,25 @@ fn plan(args: &RenderArgs, limits: &Limits) -> anyhow::Result<Planned> {
             args.height
         );
     }
+    let mut outputs = Outputs::new(&inputs(args));
+    for s in shots {
+        outputs.add("-o", &s.exr)?;
+        if let Some(p) = &s.preview {
+            outputs.add("--preview", p)?;
+        }
+    }
+    if let Some(d) = &args.depfile {
+        outputs.add("--depfile", d)?;
+    }
+    Ok(outputs)
+}
+
+fn inputs(args: &RenderArgs) -> Vec<&Path> {
     let mut inputs = vec![args.instances.as_path()];
     inputs.extend(args.terrain.as_deref());
     inputs.extend(args.camera_file.as_deref());
-    let mut outputs = Outputs::new(&inputs);
-    let exr = outputs.add("-o", &args.output)?;
-    let preview = args
-        .preview
-        .as_ref()
-        .map(|p| outputs.add("--preview", p))
-        .transpose()?;
-    let depfile = args
-        .depfile
-        .as_ref()
-        .map(|d| outputs.add("--depfile", d))
-        .transpose()?;
-    Ok(Planned {
-        outputs,
-        exr,
-        preview,
-        depfile,
-    })
+    inputs.extend(args.camera_path.as_deref());
+    inputs
 }
 
 /// The camera the flags ask for (the forest framed by default), with a warning when the eye
@@ -159,6 +283,12 @@ fn camera(args: &RenderArgs, scene: &LoadedScene, views: &import::Model) -> anyh
     };
     let camera = view::camera(choice, args.fov, (args.width, args.height), &views.cameras)
         .map_err(|e| anyhow::anyhow!(e))?;
+    warn_underground(scene, &camera);
+    Ok(camera)
+}
+
+/// Warns when the eye is under the terrain.
+fn warn_underground(scene: &LoadedScene, camera: &Camera) {
     let e = camera.eye;
     if let Some(ground) = scene.ground_height(e.x, e.z)
         && e.y < ground
@@ -171,7 +301,6 @@ fn camera(args: &RenderArgs, scene: &LoadedScene, views: &import::Model) -> anyh
             ground - e.y
         ));
     }
-    Ok(camera)
 }
 
 fn settings(args: &RenderArgs) -> RenderSettings {
@@ -213,14 +342,19 @@ fn progress_bar(pixels: u64, quiet: bool) -> indicatif::ProgressBar {
     )
 }
 
-/// Encodes the EXR, the preview and the depfile, and commits them together.
+/// Encodes a shot's EXR and preview (and the run's depfile, with the last shot), and commits
+/// them together.
 fn write(
     args: &RenderArgs,
-    mut planned: Planned,
+    shot: &Shot,
     film: &Film,
     camera: &Camera,
-    dependencies: &[std::path::PathBuf],
+    dependencies: &[PathBuf],
+    depfile: Option<(&Path, String)>,
 ) -> anyhow::Result<()> {
+    let mut outputs = Outputs::new(&inputs(args));
+    outputs.add_inputs(dependencies)?;
+    let exr_id = outputs.add("-o", &shot.exr)?;
     let aovs = Aovs {
         normal: args.aov.contains(&AovArg::Normal),
         albedo: args.aov.contains(&AovArg::Albedo),
@@ -236,23 +370,70 @@ fn write(
             camera.world_to_camera(),
             camera.world_to_ndc(),
         )
-        .map_err(|e| anyhow::anyhow!("{}: cannot encode: {e}", args.output.display()))?;
+        .map_err(|e| anyhow::anyhow!("{}: cannot encode: {e}", shot.exr.display()))?;
     if exr.clamped > 0 {
         super::warn(&format!(
             "{}: {} values above the half-float maximum (65504) were clamped to it; drop --half to keep them",
-            args.output.display(),
+            shot.exr.display(),
             exr.clamped
         ));
     }
-    planned.outputs.set(planned.exr, exr.bytes);
-    if let Some(p) = planned.preview {
+    outputs.set(exr_id, exr.bytes);
+    if let Some(p) = &shot.preview {
+        let id = outputs.add("--preview", p)?;
         let png = texel_forest::png::encode(&film.preview(Vec3::new(0.55, 0.68, 0.85)));
-        planned.outputs.set(p, png);
+        outputs.set(id, png);
     }
-    if let Some(d) = planned.depfile {
-        planned
-            .outputs
-            .set(d, depfile(&args.output, dependencies).into_bytes());
+    if let Some((path, rule)) = depfile {
+        let id = outputs.add("--depfile", path)?;
+        outputs.set(id, rule.into_bytes());
     }
-    Ok(planned.outputs.commit()?)
+    Ok(outputs.commit()?)
+}
+
+/// The run's summary line for one shot.
+fn summary(
+    args: &RenderArgs,
+    scene: &render::Scene,
+    film: &Film,
+    exr: &Path,
+    (seconds, build): (f64, f64),
+    start: Instant,
+    what: &str,
+) {
+    let trees = scene.instances.len();
+    let pixels = film.width as u64 * film.height as u64;
+    let rays = pixels * u64::from(args.spp);
+    let (samples, shadow_rays) = film.work();
+    let (drawn_from, work) = match args.method {
+        MethodArg::Texel => (
+            "textures",
+            format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
+        ),
+        MethodArg::Mesh => ("meshes", format!("{shadow_rays:.1} shadow rays per pixel")),
+        MethodArg::Hybrid => (
+            "meshes and textures",
+            format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
+        ),
+    };
+    let (grids, bytes) = scene.sun_depth.built();
+    let work = if grids > 0 {
+        format!(
+            "{work}, {grids} sun-depth grids ({:.1} MiB)",
+            bytes as f64 / f64::from(1 << 20)
+        )
+    } else {
+        work
+    };
+    let memory = texel_forest::limits::peak_memory()
+        .map_or(String::new(), |b| format!(", peak memory {} MiB", b >> 20));
+    super::summary(&format!(
+        "{what}rendered {trees} trees from their {drawn_from}, {}x{} ({pixels} pixels) at {} spp in {seconds:.2} s: {:.0} primary rays/s, {work} -> {} (scene built in {build:.2} s, {:.2} s in all{memory})",
+        args.width,
+        args.height,
+        args.spp,
+        rays as f64 / seconds,
+        exr.display(),
+        start.elapsed().as_secs_f64()
+    ));
 }

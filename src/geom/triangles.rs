@@ -79,6 +79,7 @@ impl Packet {
     }
 }
 
+#[derive(Clone, Debug)]
 pub struct TriangleBvh {
     /// One per leaf of the hierarchy, by the leaf's number.
     packets: Vec<Packet>,

@@ -8,6 +8,7 @@
 //! while unsafe input (cycles, out-of-range reads, network URIs) is refused.
 
 mod accessor;
+mod animation;
 mod document;
 mod image;
 mod scene;
@@ -22,6 +23,7 @@ use glam::{Mat3, Vec2, Vec3, Vec4};
 use crate::limits::Limits;
 use crate::provenance::Source;
 
+pub use self::animation::{CameraAnimation, load_camera_animation};
 pub use self::image::{Texture, WrapMode};
 
 /// A triangle soup with per-vertex attributes, ready for scan conversion.

@@ -54,7 +54,7 @@ pub(super) fn flatten(
 
 /// The root nodes of the default scene: `scene`, else the first scene, else (a file with no
 /// scenes) every node that is nobody's child.
-fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
+pub(super) fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
     let root = &doc.root;
     if let (Some(scene), true) = (root.scene, root.scenes.is_empty()) {
         return Err(ImportError::invalid(
@@ -91,10 +91,17 @@ fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
     Ok(scene.nodes.iter().map(|n| n.value()).collect())
 }
 
-fn local_transform(node: &json::Node) -> DMat4 {
+pub(super) fn local_transform(node: &json::Node) -> DMat4 {
     if let Some(m) = node.matrix {
         return DMat4::from_cols_array(&m.map(f64::from));
     }
+    let (translation, rotation, scale) = trs(node);
+    DMat4::from_scale_rotation_translation(scale, rotation, translation)
+}
+
+/// A node's translation, rotation (normalised; identity where it is zero or not finite) and
+/// scale, each its default where absent.
+pub(super) fn trs(node: &json::Node) -> (DVec3, DQuat, DVec3) {
     let t = node
         .translation
         .map_or(DVec3::ZERO, |t| DVec3::from(t.map(f64::from)));
@@ -109,7 +116,7 @@ fn local_transform(node: &json::Node) -> DMat4 {
             DQuat::IDENTITY
         }
     });
-    DMat4::from_scale_rotation_translation(s, r, t)
+    (t, r, s)
 }
 
 fn visit(

@@ -291,3 +291,227 @@ fn camera_nodes_and_directional_lights_are_placed_by_their_world_transforms() {
     );
     assert_eq!(s.intensity, 3.0);
 }
+
+/// Writes `doc` with `bin` as a data URI into `dir`/`name` (a `.gltf`).
+fn write_gltf(mut doc: Value, bin: &[u8], dir: &std::path::Path) -> std::path::PathBuf {
+    doc["asset"] = json!({ "version": "2.0" });
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bin)
+    );
+    doc["buffers"] = json!([{ "byteLength": bin.len(), "uri": uri }]);
+    let path = dir.join("camera.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    path
+}
+
+/// A unit quaternion (x, y, z, w) turning `degrees` about +Y.
+fn about_y(degrees: f64) -> [f32; 4] {
+    let h = degrees.to_radians() / 2.0;
+    [0.0, h.sin() as f32, 0.0, h.cos() as f32]
+}
+
+/// The viewing direction of a camera turned `degrees` about +Y: its -Z turned.
+fn turned_forward(degrees: f64) -> glam::DVec3 {
+    let a = degrees.to_radians();
+    glam::DVec3::new(-a.sin(), 0.0, -a.cos())
+}
+
+/// A parent whose translation steps (STEP) and a camera below it that moves (LINEAR) and
+/// turns (LINEAR: spherical), the rotation keys stored as normalised shorts, as quantised
+/// exporters write them.
+fn animated_camera(dir: &std::path::Path) -> std::path::PathBuf {
+    let (mut bin, mut views) = (vec![], vec![]);
+    let times = view(&mut bin, &mut views, &f32s(&[0.0, 2.0]));
+    let step_times = view(&mut bin, &mut views, &f32s(&[0.0, 1.0]));
+    let moves = view(
+        &mut bin,
+        &mut views,
+        &f32s(&[0.0, 10.0, 0.0, 20.0, 10.0, 0.0]),
+    );
+    let steps = view(
+        &mut bin,
+        &mut views,
+        &f32s(&[0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
+    );
+    let shorts: Vec<u8> = [about_y(0.0), about_y(90.0)]
+        .as_flattened()
+        .iter()
+        .flat_map(|&x| ((x * 32767.0).round() as i16).to_le_bytes())
+        .collect();
+    let turns = view(&mut bin, &mut views, &shorts);
+    let doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [
+            { "children": [1] },
+            { "camera": 0 },
+        ],
+        "cameras": [{ "type": "perspective", "name": "flyer",
+                      "perspective": { "yfov": 0.5, "znear": 0.1 } }],
+        "animations": [{
+            "channels": [
+                { "sampler": 0, "target": { "node": 1, "path": "translation" } },
+                { "sampler": 1, "target": { "node": 1, "path": "rotation" } },
+                { "sampler": 2, "target": { "node": 0, "path": "translation" } },
+            ],
+            "samplers": [
+                { "input": 0, "output": 2 },
+                { "input": 0, "output": 4, "interpolation": "LINEAR" },
+                { "input": 1, "output": 3, "interpolation": "STEP" },
+            ],
+        }],
+        "accessors": [
+            { "bufferView": times, "componentType": 5126, "count": 2, "type": "SCALAR",
+              "min": [0.0], "max": [2.0] },
+            { "bufferView": step_times, "componentType": 5126, "count": 2, "type": "SCALAR",
+              "min": [0.0], "max": [1.0] },
+            { "bufferView": moves, "componentType": 5126, "count": 2, "type": "VEC3" },
+            { "bufferView": steps, "componentType": 5126, "count": 2, "type": "VEC3" },
+            { "bufferView": turns, "componentType": 5122, "normalized": true, "count": 2,
+              "type": "VEC4" },
+        ],
+        "bufferViews": views,
+    });
+    write_gltf(doc, &bin, dir)
+}
+
+#[test]
+fn an_animated_camera_follows_linear_step_and_spherical_keys_through_its_parents() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = animated_camera(dir.path());
+    let limits = crate::limits::Limits::default();
+    let (a, _) = super::load_camera_animation(&path, None, &limits).unwrap();
+    assert_eq!((a.name.as_str(), a.start, a.end), ("flyer", 0.0, 2.0));
+    // Quantised to shorts, the keys' quaternions are a few 1e-5 off.
+    let close = |x: glam::DVec3, y: glam::DVec3, what: &str| {
+        assert!((x - y).length() < 1e-4, "{what}: {x} against {y}");
+    };
+    // (time, eye, turn about +Y): the parent steps by 10 along +Z at 1 s, the camera slides
+    // 20 along +X over 2 s and turns a quarter turn; before and after the keys, the ends.
+    for (t, eye, degrees) in [
+        (-1.0, [0.0, 10.0, 0.0], 0.0),
+        (0.5, [5.0, 10.0, 0.0], 22.5),
+        (1.0, [10.0, 10.0, 10.0], 45.0),
+        (1.5, [15.0, 10.0, 10.0], 67.5),
+        (9.0, [20.0, 10.0, 10.0], 90.0),
+    ] {
+        let c = a.at(t);
+        close(c.eye, glam::DVec3::from(eye), &format!("eye at {t} s"));
+        close(
+            c.forward,
+            turned_forward(degrees),
+            &format!("forward at {t} s"),
+        );
+        close(c.up, glam::DVec3::Y, &format!("up at {t} s"));
+        assert_eq!(c.yfov, f64::from(0.5f32));
+    }
+    // By name, the same camera; a name the file lacks is refused with the names it has.
+    assert!(super::load_camera_animation(&path, Some("flyer"), &limits).is_ok());
+    let e = super::load_camera_animation(&path, Some("drone"), &limits)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("drone") && e.contains("flyer"), "{e}");
+}
+
+#[test]
+fn cubic_spline_keys_and_the_short_way_round_are_interpolated_as_gltf_specifies() {
+    let (mut bin, mut views) = (vec![], vec![]);
+    let times = view(&mut bin, &mut views, &f32s(&[0.0, 1.0]));
+    // Triplets (in-tangent, value, out-tangent): from x = 0 leaving at slope 2 to x = 1
+    // arriving flat.
+    let cubic = view(
+        &mut bin,
+        &mut views,
+        &f32s(&[
+            0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, //
+            0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        ]),
+    );
+    // The same quarter turn as -q: slerp must take the short way, 45 degrees half way.
+    let q = about_y(90.0).map(|x| -x);
+    let turns = view(&mut bin, &mut views, &f32s(&[about_y(0.0), q].concat()));
+    let doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "camera": 0 }],
+        "cameras": [{ "type": "perspective", "perspective": { "yfov": 0.8, "znear": 0.1 } }],
+        "animations": [{
+            "channels": [
+                { "sampler": 0, "target": { "node": 0, "path": "translation" } },
+                { "sampler": 1, "target": { "node": 0, "path": "rotation" } },
+            ],
+            "samplers": [
+                { "input": 0, "output": 1, "interpolation": "CUBICSPLINE" },
+                { "input": 0, "output": 2 },
+            ],
+        }],
+        "accessors": [
+            { "bufferView": times, "componentType": 5126, "count": 2, "type": "SCALAR",
+              "min": [0.0], "max": [1.0] },
+            { "bufferView": cubic, "componentType": 5126, "count": 6, "type": "VEC3" },
+            { "bufferView": turns, "componentType": 5126, "count": 2, "type": "VEC4" },
+        ],
+        "bufferViews": views,
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_gltf(doc, &bin, dir.path());
+    let (a, _) =
+        super::load_camera_animation(&path, None, &crate::limits::Limits::default()).unwrap();
+    // Hermite at u = 1/2: h10 = 1/8 of the out-tangent 2, h01 = 1/2 of the value 1.
+    let c = a.at(0.5);
+    assert!((c.eye.x - 0.75).abs() < 1e-9, "{}", c.eye);
+    assert!(
+        (c.forward - turned_forward(45.0)).length() < 1e-6,
+        "{}",
+        c.forward
+    );
+    // At u = 1/4: h10 = 9/64, h01 = 5/32.
+    assert!((a.at(0.25).eye.x - (2.0 * 9.0 / 64.0 + 5.0 / 32.0)).abs() < 1e-9);
+}
+
+#[test]
+fn broken_camera_animations_are_refused_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let limits = crate::limits::Limits::default();
+    let good: Value =
+        serde_json::from_slice(&std::fs::read(animated_camera(dir.path())).unwrap()).unwrap();
+    // Each case breaks the good file one way, and names what the error must name.
+    type Break = fn(&mut Value);
+    let cases: Vec<(Break, &str)> = vec![
+        (
+            // Key times 0, 0: not increasing.
+            |d| d["accessors"][0]["bufferView"] = json!(3),
+            "animations[0].samplers[0].input",
+        ),
+        (
+            |d| d["accessors"][2]["count"] = json!(1),
+            "animations[0].samplers[0].output",
+        ),
+        (
+            |d| d["animations"][0]["channels"][0]["sampler"] = json!(7),
+            "animations[0].channels[0].sampler",
+        ),
+        (
+            |d| d["animations"][0]["channels"][0]["target"]["node"] = json!(9),
+            "animations[0].channels[0].target.node",
+        ),
+        (
+            |d| d["nodes"][1]["matrix"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]),
+            "matrix",
+        ),
+        (
+            |d| d["animations"] = json!([]),
+            "no animation moves a camera",
+        ),
+    ];
+    for (break_it, needle) in cases {
+        let mut doc = good.clone();
+        break_it(&mut doc);
+        let path = dir.path().join("broken.gltf");
+        std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+        let e = super::load_camera_animation(&path, None, &limits)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(needle), "{needle:?} not in {e:?}");
+        assert!(e.contains("broken.gltf"), "{e}");
+    }
+}

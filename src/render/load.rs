@@ -303,6 +303,23 @@ impl LoadedScene {
         }
     }
 
+    /// [`LoadedScene::into_scene`] keeping what was loaded, for the next frame of a sequence
+    /// (each frame's scene is in the frame of its own eye).
+    pub fn scene(&self, eye: glam::DVec3, lighting: super::Lighting) -> super::Scene {
+        let scene = super::Scene::new(
+            eye,
+            self.texels.clone(),
+            self.looks.clone(),
+            &self.placed,
+            Some(self.terrain.mesh.clone()),
+            lighting,
+        );
+        match &self.meshes {
+            Some(m) => scene.with_meshes(m.clone()),
+            None => scene,
+        }
+    }
+
     /// Height of the terrain's surface above (x, z), if any.
     pub fn ground_height(&self, x: f64, z: f64) -> Option<f64> {
         crate::terrain::Terrain::surface_height(&self.terrain.mesh, x, z)

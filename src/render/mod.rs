@@ -7,6 +7,7 @@
 //! threads and a cropped render equals that region of the full one, bit for bit.
 
 pub mod camera;
+pub mod camera_path;
 pub mod film;
 pub mod instances;
 pub mod integrate;

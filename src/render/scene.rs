@@ -245,6 +245,17 @@ impl Scene {
         }
     }
 
+    /// Takes `grids`, the sun-depth grids another scene of the same forest, textures and sun
+    /// built (an earlier frame of a sequence, whatever its eye), instead of building them
+    /// again: they are in the trees' model space and the same bits whoever builds them.
+    pub fn reuse_sun_depth(&mut self, grids: SunDepth) {
+        assert!(
+            grids.fits(&self.instances, &self.looks),
+            "sun-depth grids of another forest"
+        );
+        self.sun_depth = grids;
+    }
+
     /// The texture instance `i` is drawn from.
     #[inline]
     pub fn texel_of(&self, i: u32) -> &Texel {
@@ -260,6 +271,7 @@ impl Scene {
 }
 
 /// A tree model ready for tracing, in its model space (that of the texel baked from it).
+#[derive(Clone, Debug)]
 pub struct TreeMesh {
     pub mesh: Mesh,
     pub(super) triangles: TriangleBvh,

@@ -135,6 +135,12 @@ impl SunDepth {
         grid.depth_from(turned.to_model(ray.origin))
     }
 
+    /// Whether these grids were made for `instances` drawn with `looks` (as many of each,
+    /// the same turns).
+    pub fn fits(&self, instances: &Instances, looks: &[Look]) -> bool {
+        self.casters.len() == looks.len() && self.turns.len() == instances.len()
+    }
+
     /// How many grids are built, and their bytes.
     pub fn built(&self) -> (usize, usize) {
         let built = self.grids.iter().filter_map(OnceLock::get);
