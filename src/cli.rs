@@ -550,8 +550,8 @@ pub enum AovArg {
     Albedo,
     Canopy,
     Species,
-    /// Coverage drawn by meshes and by textures (lod.mesh, lod.texel): the hybrid method's
-    /// transitions.
+    /// Coverage drawn by meshes and by textures (lod.mesh, lod.texel), and by trees in the
+    /// transition band (lod.band): the hybrid method's transitions.
     Lod,
     /// Volume samples and shadow rays per pixel: where the time goes.
     Samples,

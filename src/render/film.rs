@@ -52,6 +52,8 @@ pub struct Film {
     pub canopy: Vec<f32>,
     /// The part of `canopy` drawn from polygon models.
     pub mesh_canopy: Vec<f32>,
+    /// The part of `canopy` drawn from trees in the hybrid method's transition band.
+    pub band_canopy: Vec<f32>,
     pub species: Vec<f32>,
     /// Volume samples along the pixel's view rays (all of its samples), and shadow rays cast.
     pub samples: Vec<f32>,
@@ -73,6 +75,7 @@ impl Film {
             albedo: vec![Vec3::ZERO; n],
             canopy: vec![0.0; n],
             mesh_canopy: vec![0.0; n],
+            band_canopy: vec![0.0; n],
             species: vec![0.0; n],
             samples: vec![0.0; n],
             shadow_rays: vec![0.0; n],
@@ -189,6 +192,12 @@ impl Film {
             channels.push(AnyChannel::new(
                 "lod.texel",
                 samples(column(&|i| (self.canopy[i] - self.mesh_canopy[i]).max(0.0))),
+            ));
+            // Of that canopy, what trees in the transition band drew (either way, by chance):
+            // where a moving camera would see trees change representation.
+            channels.push(AnyChannel::new(
+                "lod.band",
+                samples(self.band_canopy.clone()),
             ));
         }
         if aovs.species {

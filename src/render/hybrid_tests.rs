@@ -104,6 +104,8 @@ fn a_tree_well_inside_each_regime_renders_as_the_pure_method() {
         let pure = image(&scene, &camera, method, lod, 4);
         assert_eq!(bits(&hybrid), bits(&pure), "{method:?}");
         assert_eq!(hybrid.canopy, pure.canopy);
+        // Outside the band no tree is drawn by chance.
+        assert!(hybrid.band_canopy.iter().all(|&b| b == 0.0));
         let covered = pure.canopy.iter().filter(|&&c| c > 0.5).count();
         assert!(covered >= covered_at_least, "{method:?}: {covered} pixels");
         if method == Method::Mesh {
@@ -173,6 +175,11 @@ fn in_the_band_the_expected_image_is_the_blend_of_the_two() {
     // What the meshes drew, as the lod AOV reports it: the blend's share of the coverage.
     let texel_coverage = hybrid.canopy.iter().sum::<f32>() - hybrid.mesh_canopy.iter().sum::<f32>();
     assert!(texel_coverage > 0.0 && hybrid.mesh_canopy.iter().any(|&m| m > 0.0));
+    // The one tree is in the band: all of the canopy is the band's, however it was drawn.
+    for (b, c) in hybrid.band_canopy.iter().zip(&hybrid.canopy) {
+        assert!((b - c).abs() < 1e-5, "band {b} of canopy {c}");
+    }
+    assert!(hybrid.band_canopy.iter().any(|&b| b > 0.5));
 }
 
 /// A cloud of black texture (transmittance 1/2 through it) in front of an opaque white slab

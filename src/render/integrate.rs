@@ -162,6 +162,9 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
         };
         let source = scatter(scene, &walk.active, &sample, march, &mut out.shadow_rays);
         out.rgb += source * share;
+        if draw.in_band(scene, walk.active[m.home].instance) {
+            out.band_canopy += share;
+        }
         transmittance *= 1.0 - opacity;
         SURFACES.with_borrow_mut(|s| {
             s.push(Surface {
@@ -328,6 +331,8 @@ struct Mix {
     gradient: Vec3,
     gradient_wood: Vec3,
     densest: (f32, u16),
+    /// Which of the active instances is the densest there.
+    home: usize,
     /// Whether any texture was read: a step where every stencil is empty reads none.
     read: bool,
 }
@@ -348,9 +353,10 @@ fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
         gradient: Vec3::ZERO,
         gradient_wood: Vec3::ZERO,
         densest: (0.0, 0),
+        home: 0,
         read: false,
     };
-    for a in active {
+    for (k, a) in active.iter().enumerate() {
         let c = a.c0 + a.dc * ts;
         // Most steps through a crown are in air: one bit says so without reading a cell.
         if !scene.occupancy[a.model as usize][a.level].stencils.holds(c) {
@@ -380,6 +386,7 @@ fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
         m.gradient_wood += inst.dir_to_world(f.gradient[0]) * per_metre;
         if s > m.densest.0 {
             m.densest = (s, inst.look);
+            m.home = k;
         }
     }
     m
@@ -445,10 +452,13 @@ fn finish(
             out.species = surface.species;
         }
     });
-    if matches!(behind, Behind::Tree(_)) {
+    if let Behind::Tree(h) = &behind {
         // A model is opaque where it is hit: the canopy is whole, that much of it the model's.
         out.canopy = 1.0;
         out.mesh_canopy = transmittance;
+        if l.draw.in_band(scene, h.instance) {
+            out.band_canopy += transmittance;
+        }
     }
     match behind {
         Behind::Ground(g, hit) if transmittance >= l.march.cutoff => {

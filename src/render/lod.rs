@@ -123,6 +123,21 @@ impl Draw {
         }
     }
 
+    /// Whether instance `i` lies in the transition band for this sample: drawn from its
+    /// texture or its model by chance, not by its footprint alone.
+    #[inline]
+    pub fn in_band(&self, scene: &Scene, i: u32) -> bool {
+        match *self {
+            Draw::Texel | Draw::Mesh => false,
+            Draw::Hybrid {
+                lod, spread, ends, ..
+            } => {
+                let p = Self::probability(scene, &lod, ends, spread, i);
+                p > 0.0 && p < 1.0
+            }
+        }
+    }
+
     /// Whether instance `i` is drawn from its texture for this sample.
     #[inline]
     pub fn texel(&self, scene: &Scene, i: u32) -> bool {

@@ -121,6 +121,7 @@ pub fn render(
         film.albedo[i] = p.radiance.albedo;
         film.canopy[i] = p.canopy;
         film.mesh_canopy[i] = p.mesh_canopy;
+        film.band_canopy[i] = p.band_canopy;
         film.species[i] = p.radiance.species;
         film.samples[i] = p.samples;
         film.shadow_rays[i] = p.shadow_rays;
@@ -137,6 +138,8 @@ struct Pixel {
     canopy: f32,
     /// The part of `canopy` drawn from polygon models, the mean over the samples.
     mesh_canopy: f32,
+    /// The part of `canopy` drawn from trees in the transition band, the mean over the samples.
+    band_canopy: f32,
     /// Work for the whole pixel, all its samples.
     samples: f32,
     shadow_rays: f32,
@@ -159,7 +162,7 @@ fn pixel(
     );
     let (mut rgba, mut first, mut z) = ([0.0f32; 4], None, f32::INFINITY);
     let (mut samples, mut shadow_rays) = (0u64, 0u64);
-    let (mut canopy, mut mesh_canopy) = (0.0f32, 0.0f32);
+    let (mut canopy, mut mesh_canopy, mut band_canopy) = (0.0f32, 0.0f32, 0.0f32);
     for s in 0..settings.spp {
         let key = rng::hash3(pixel_key, s as u64, 0);
         let (sx, sy) = ((s % strata) as f64, ((s / strata) % strata) as f64);
@@ -180,6 +183,7 @@ fn pixel(
         rgba[3] += 1.0 - r.transmittance;
         canopy += r.canopy;
         mesh_canopy += r.mesh_canopy;
+        band_canopy += r.band_canopy;
         samples += u64::from(r.samples);
         shadow_rays += u64::from(r.shadow_rays);
         if r.distance.is_finite() {
@@ -198,6 +202,7 @@ fn pixel(
         radiance: first.unwrap_or_default(),
         canopy: (canopy / n).clamp(0.0, 1.0),
         mesh_canopy: (mesh_canopy / n).clamp(0.0, 1.0),
+        band_canopy: (band_canopy / n).clamp(0.0, 1.0),
         samples: samples as f32,
         shadow_rays: shadow_rays as f32,
     }

@@ -24,6 +24,9 @@ pub struct Radiance {
     pub canopy: f32,
     /// The part of `canopy` drawn from polygon models (the rest is the textures').
     pub mesh_canopy: f32,
+    /// The part of `canopy` drawn from trees in the hybrid method's transition band (drawn
+    /// either way by chance), however they were drawn.
+    pub band_canopy: f32,
     /// Species index + 1 of the densest tree at the surface, 0 for terrain or sky.
     pub species: f32,
     /// Work done: volume samples along the ray (steps that read a texture: a step where every
