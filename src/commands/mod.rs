@@ -5,6 +5,7 @@ mod compare;
 mod inspect;
 mod place;
 mod render;
+mod temporal;
 
 pub use compare::{TOO_DIFFERENT, TooDifferent};
 
