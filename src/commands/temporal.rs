@@ -1,30 +1,36 @@
 //! `texel compare --temporal`: the flicker of a frame sequence, as text or JSON.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use serde::Serialize;
 use texel_forest::limits::Limits;
-use texel_forest::temporal::{Change, measure_files};
+use texel_forest::temporal::{Change, Pair, measure_files};
 
 use crate::cli::CompareArgs;
+
+/// A pair's measures in JSON, beside the files they come from.
+#[derive(Serialize)]
+struct PairEntry<'a> {
+    from: &'a Path,
+    to: &'a Path,
+    #[serde(flatten)]
+    pair: &'a Pair,
+}
 
 pub fn run(frames: &[PathBuf], args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     let mask = args.mask_channel.as_deref();
     let sequence = measure_files(frames, mask, args.depth_tolerance, limits)?;
     if args.json {
-        let pairs: Vec<serde_json::Value> = sequence
+        let pairs: Vec<PairEntry> = sequence
             .pairs
             .iter()
             .zip(frames.windows(2))
-            .map(|(pair, files)| {
-                let mut entry = serde_json::json!({ "from": files[0], "to": files[1] });
-                if let (Some(entry), serde_json::Value::Object(measures)) =
-                    (entry.as_object_mut(), serde_json::to_value(pair)?)
-                {
-                    entry.extend(measures);
-                }
-                Ok(entry)
+            .map(|(pair, files)| PairEntry {
+                from: &files[0],
+                to: &files[1],
+                pair,
             })
-            .collect::<Result<_, serde_json::Error>>()?;
+            .collect();
         let json = serde_json::json!({
             "frames": frames,
             "mask_channel": mask,
