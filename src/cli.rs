@@ -345,28 +345,40 @@ pub struct AnimateArgs {
 }
 
 #[derive(Args, Debug)]
+#[command(
+    group(clap::ArgGroup::new("mask_source").args(["mask", "temporal"])),
+    override_usage = "texel compare [OPTIONS] <A.exr> <REFERENCE.exr>\n       \
+                      texel compare [OPTIONS] --temporal <FRAME> <FRAME>..."
+)]
 pub struct CompareArgs {
     /// The render to judge (OpenEXR with R, G, B, A).
-    #[arg(value_name = "A.exr")]
-    pub image: PathBuf,
+    #[arg(value_name = "A.exr", required_unless_present = "temporal")]
+    pub image: Option<PathBuf>,
     /// The reference (OpenEXR with R, G, B, A, the same size and window).
-    #[arg(value_name = "REFERENCE.exr")]
-    pub reference: PathBuf,
+    #[arg(value_name = "REFERENCE.exr", required_unless_present = "temporal")]
+    pub reference: Option<PathBuf>,
+    /// Measure instead the change from each frame of a sequence to the next (flicker), in the
+    /// order given: camera motion is undone with each frame's Z and camera matrices (as
+    /// `texel render` writes them); frames with the same matrices compare pixel for pixel.
+    #[arg(long, value_name = "FRAME", num_args = 2..,
+          conflicts_with_all = ["image", "reference", "mask", "heatmap", "fail_above"])]
+    pub temporal: Option<Vec<PathBuf>>,
     /// Also measure inside a mask: a PNG (pixels brighter than half inside) or an OpenEXR
     /// (alpha above one half inside), the size of the images.
     #[arg(long, value_name = "FILE")]
     pub mask: Option<PathBuf>,
-    /// The EXR mask's channel that marks inside (above one half): e.g. `canopy.A` of a render
-    /// with `--aov canopy`, for the pixels where trees are.
-    #[arg(long, value_name = "NAME", default_value = "A", requires = "mask")]
-    pub mask_channel: String,
+    /// The EXR mask's channel that marks inside (above one half; default `A`): e.g.
+    /// `canopy.A` of a render with `--aov canopy`, for the pixels where trees are. With
+    /// `--temporal`, each frame's own channel, and only the pixels inside are measured.
+    #[arg(long, value_name = "NAME", requires = "mask_source")]
+    pub mask_channel: Option<String>,
     /// Decide the mask in blocks of N x N pixels: a whole block is inside when more than half
     /// of its pixels are. A mask drawn from the reference's own matte favours the reference at
     /// silhouettes (a render with softer edges than the reference's has less canopy and more
     /// ground exactly there); at a block a few pixels wide, the mean ratio inside measures
     /// brightness rather than edge sharpness.
     #[arg(long, value_name = "N", default_value_t = 1, requires = "mask",
-          value_parser = clap::value_parser!(u32).range(1..=256))]
+          conflicts_with = "temporal", value_parser = clap::value_parser!(u32).range(1..=256))]
     pub mask_block: u32,
     /// Print the measures as JSON.
     #[arg(long)]
@@ -375,12 +387,22 @@ pub struct CompareArgs {
     #[arg(long, value_name = "DIFF.png")]
     pub heatmap: Option<PathBuf>,
     /// The error the heatmap's brightest colour stands for (default: the largest error).
-    #[arg(long, value_name = "ERROR", requires = "heatmap", value_parser = non_negative)]
+    #[arg(long, value_name = "ERROR", requires = "heatmap", conflicts_with = "temporal",
+          value_parser = non_negative)]
     pub scale: Option<f64>,
     /// Exit with status 3 when the colour RMSE exceeds this, or when either image has a pixel
     /// that is not finite (for build systems and tests).
     #[arg(long, value_name = "RMSE", value_parser = non_negative)]
     pub fail_above: Option<f64>,
+    /// With --temporal: how far, as a fraction of its depth, the next frame's Z may be from a
+    /// point carried into it and still count as the same surface (beyond it the pixel is
+    /// rejected as hidden or uncovered).
+    // Not `requires = "temporal"`: clap waives a requirement that conflicts with a present
+    // argument, and --temporal conflicts with the images.
+    #[arg(long, value_name = "FRACTION", conflicts_with_all = ["image", "reference"],
+          value_parser = non_negative,
+          default_value_t = texel_forest::temporal::DEFAULT_DEPTH_TOLERANCE)]
+    pub depth_tolerance: f64,
 }
 
 #[derive(Args, Debug)]

@@ -71,24 +71,51 @@ impl Rgba {
         names: [&str; 4],
         limits: &Limits,
     ) -> Result<Rgba, CompareError> {
-        let file = std::fs::File::open(path).map_err(|e| CompareError::Read {
-            file: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        Rgba::from_reader(std::io::BufReader::new(file), path, names, limits)
+        ExrLayer::read(path, limits, RGBA_BYTES)?.rgba(names)
     }
 
     /// [`Rgba::read`] from the bytes of an EXR file (`path` names it in errors).
     pub fn from_bytes(bytes: &[u8], path: &Path, limits: &Limits) -> Result<Rgba, CompareError> {
-        Rgba::from_reader(std::io::Cursor::new(bytes), path, CHANNELS, limits)
+        ExrLayer::from_reader(std::io::Cursor::new(bytes), path, limits, RGBA_BYTES)?.rgba(CHANNELS)
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "{}x{} at ({}, {})",
+            self.width, self.height, self.x0, self.y0
+        )
+    }
+}
+
+/// Bytes a pixel of an [`Rgba`] copy holds.
+const RGBA_BYTES: u64 = 16;
+
+/// The first layer of an OpenEXR file, every channel decoded, with its attributes and the
+/// file's display window.
+pub(crate) struct ExrLayer {
+    path: PathBuf,
+    layer: exr::image::Layer<exr::image::AnyChannels<exr::image::FlatSamples>>,
+    display_window: exr::meta::attribute::IntegerBounds,
+}
+
+impl ExrLayer {
+    /// Reads the file at `path`, refusing one whose header claims more pixels than `limits`
+    /// allow, or more memory than the machine gives for its channels and the `held` bytes a
+    /// pixel the caller will copy out of them, before any pixel is read.
+    pub(crate) fn read(path: &Path, limits: &Limits, held: u64) -> Result<ExrLayer, CompareError> {
+        let file = std::fs::File::open(path).map_err(|e| CompareError::Read {
+            file: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        ExrLayer::from_reader(std::io::BufReader::new(file), path, limits, held)
     }
 
     fn from_reader(
         mut reader: impl std::io::Read + std::io::Seek,
         path: &Path,
-        channels: [&str; 4],
         limits: &Limits,
-    ) -> Result<Rgba, CompareError> {
+        held: u64,
+    ) -> Result<ExrLayer, CompareError> {
         let read_error = |message: String| CompareError::Read {
             file: path.to_path_buf(),
             message,
@@ -103,7 +130,7 @@ impl Rgba {
         limits
             .check_pixels(pixels, "the pixels its header claims")
             .map_err(|e| read_error(e.to_string()))?;
-        // The decoded channels (up to 4 bytes a sample) and our RGBA copy.
+        // The decoded channels (up to 4 bytes a sample) and the caller's copy.
         let samples: u64 = meta
             .headers
             .iter()
@@ -112,7 +139,7 @@ impl Rgba {
         crate::limits::check_memory(
             samples
                 .saturating_mul(4)
-                .saturating_add(pixels.saturating_mul(16)),
+                .saturating_add(pixels.saturating_mul(held)),
             "its pixels",
         )
         .map_err(|e| read_error(e.to_string()))?;
@@ -131,49 +158,74 @@ impl Rgba {
             .non_parallel()
             .from_buffered(reader)
             .map_err(|e| read_error(e.to_string()))?;
+        let display_window = image.attributes.display_window;
         let layer = image
             .layer_data
-            .first()
+            .into_iter()
+            .next()
             .ok_or_else(|| read_error("it has no layers".into()))?;
-        let names: Vec<String> = layer
-            .channel_data
-            .list
-            .iter()
-            .map(|c| c.name.to_string())
-            .collect();
-        let (width, height) = (layer.size.width(), layer.size.height());
+        Ok(ExrLayer {
+            path: path.to_path_buf(),
+            layer,
+            display_window,
+        })
+    }
+
+    /// The `worldToCamera` and `worldToNDC` attributes, where the file has them.
+    pub(crate) fn camera_matrices(&self) -> (Option<[f32; 16]>, Option<[f32; 16]>) {
+        let a = &self.layer.attributes;
+        (a.world_to_camera, a.world_to_normalized_device)
+    }
+
+    /// The display window (the full frame NDC spans): its top-left corner and size.
+    pub(crate) fn display_window(&self) -> ([i32; 2], [usize; 2]) {
+        let w = self.display_window;
+        (
+            [w.position.x(), w.position.y()],
+            [w.size.width(), w.size.height()],
+        )
+    }
+
+    fn size(&self) -> (usize, usize) {
+        (self.layer.size.width(), self.layer.size.height())
+    }
+
+    /// The samples of the channel `name`, row by row.
+    pub(crate) fn channel(
+        &self,
+        name: &str,
+    ) -> Result<impl Iterator<Item = f32> + '_, CompareError> {
+        let list = &self.layer.channel_data.list;
+        match list.iter().find(|ch| ch.name.to_string() == name) {
+            Some(data) => Ok(data.sample_data.values_as_f32()),
+            None => Err(CompareError::MissingChannel {
+                file: self.path.clone(),
+                channel: name.to_string(),
+                present: list
+                    .iter()
+                    .map(|c| c.name.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }),
+        }
+    }
+
+    /// The channels `names` as the R, G, B and A of an [`Rgba`].
+    pub(crate) fn rgba(&self, names: [&str; 4]) -> Result<Rgba, CompareError> {
+        let (width, height) = self.size();
         let mut pixels = vec![[0.0f32; 4]; width * height];
-        for (c, channel) in channels.iter().enumerate() {
-            let Some(data) = layer
-                .channel_data
-                .list
-                .iter()
-                .find(|ch| ch.name.to_string() == *channel)
-            else {
-                return Err(CompareError::MissingChannel {
-                    file: path.to_path_buf(),
-                    channel: channel.to_string(),
-                    present: names.join(", "),
-                });
-            };
-            for (p, v) in pixels.iter_mut().zip(data.sample_data.values_as_f32()) {
+        for (c, name) in names.iter().enumerate() {
+            for (p, v) in pixels.iter_mut().zip(self.channel(name)?) {
                 p[c] = v;
             }
         }
         Ok(Rgba {
-            x0: layer.attributes.layer_position.x(),
-            y0: layer.attributes.layer_position.y(),
+            x0: self.layer.attributes.layer_position.x(),
+            y0: self.layer.attributes.layer_position.y(),
             width,
             height,
             pixels,
         })
-    }
-
-    fn describe(&self) -> String {
-        format!(
-            "{}x{} at ({}, {})",
-            self.width, self.height, self.x0, self.y0
-        )
     }
 }
 

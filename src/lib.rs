@@ -32,5 +32,6 @@ pub mod render;
 pub mod rng;
 pub mod silhouette;
 pub mod species;
+pub mod temporal;
 pub mod terrain;
 pub mod volume;

@@ -185,3 +185,103 @@ fn compare_takes_a_mask_from_a_named_channel_and_reports_mean_ratios() {
     let o = run(&["compare", "a.exr", "ref.exr"], d);
     assert!(String::from_utf8_lossy(&o.stdout).contains("mean ratio R"));
 }
+
+/// Writes a frame as `texel render` does: premultiplied RGBA `rgba(x, y)`, Z 10 m everywhere,
+/// `canopy.A` over the left half, and the matrices of a camera at the origin looking down -Z.
+fn write_frame(path: &Path, rgba: impl Fn(u32, u32) -> [f32; 4]) {
+    use texel_forest::render::{Aovs, Camera, Film};
+    let (width, height) = (8, 4);
+    let camera =
+        Camera::look_at(glam::DVec3::ZERO, glam::DVec3::NEG_Z, 40.0, width, height).unwrap();
+    let mut film = Film::new(0, 0, width, height, (width, height));
+    for (i, p) in film.rgba.iter_mut().enumerate() {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        *p = rgba(x, y);
+        film.z[i] = 10.0;
+        film.canopy[i] = if x < width / 2 { 1.0 } else { 0.0 };
+    }
+    let aovs = Aovs {
+        canopy: true,
+        ..Aovs::default()
+    };
+    let exr = film
+        .exr_bytes(false, aovs, camera.world_to_camera(), camera.world_to_ndc())
+        .unwrap();
+    std::fs::write(path, exr.bytes).unwrap();
+}
+
+/// `--temporal`: frames alternating 0.6 and 0.4 (a flicker of +-0.1 about 0.5) change by 0.2
+/// from each to the next; inside `canopy.A`, where they do not flicker, by nothing.
+#[test]
+fn compare_temporal_measures_a_known_flicker() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for n in 0..3 {
+        let v = if n % 2 == 0 { 0.6 } else { 0.4 };
+        write_frame(&d.join(format!("f{n}.exr")), |x, _| {
+            let v = if x < 4 { 0.5 } else { v };
+            [v, v, v, 1.0]
+        });
+    }
+    let frames = ["compare", "--temporal", "f0.exr", "f1.exr", "f2.exr"];
+    let o = run(&[&frames[..], &["--json"]].concat(), d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json["pairs"].as_array().unwrap().len(), 2, "{json}");
+    assert_eq!(json["pairs"][1]["from"], "f1.exr");
+    assert_eq!(json["pairs"][1]["to"], "f2.exr");
+    assert_eq!(json["pairs"][0]["camera_moved"], false);
+    assert_eq!(json["total"]["measured"], 64);
+    // Half the pixels change by 0.2 in R, G and B, the other half not at all.
+    let mean = json["total"]["mean_absolute"].as_f64().unwrap();
+    assert!((mean - 0.1).abs() < 1e-6, "{json}");
+    let rms = json["total"]["rms"].as_f64().unwrap();
+    assert!((rms - (0.02f64).sqrt()).abs() < 1e-6, "{json}");
+    let o = run(
+        &[&frames[..], &["--json", "--mask-channel", "canopy.A"]].concat(),
+        d,
+    );
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json["mask_channel"], "canopy.A");
+    assert_eq!(json["total"]["inside_mask"], 32);
+    assert_eq!(json["total"]["mean_absolute"], 0.0);
+    // Text names each pair and the measures.
+    let o = run(&frames, d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("f0.exr -> f1.exr, same camera")
+            && text.contains("all 2 pairs")
+            && text.contains("mean |change| 0.100000"),
+        "{text}"
+    );
+}
+
+#[test]
+fn compare_temporal_refuses_what_it_cannot_measure() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_frame(&d.join("f0.exr"), |_, _| [0.5; 4]);
+    // A render's colour without its depth.
+    write(&d.join("flat.exr"), 8, 4, |_, _| [0.5; 4]);
+    assert_error(
+        &run(&["compare", "--temporal", "f0.exr", "flat.exr"], d),
+        &["flat.exr", "no channel Z"],
+    );
+    assert_error(
+        &run(&["compare", "--temporal", "f0.exr", "gone.exr"], d),
+        &["gone.exr", "cannot read"],
+    );
+    // Usage errors (status 2): one frame; three images without --temporal; both modes at once.
+    for args in [
+        &["compare", "--temporal", "f0.exr"][..],
+        &["compare", "f0.exr", "f0.exr", "f0.exr"],
+        &["compare", "f0.exr", "--temporal", "f0.exr", "f0.exr"],
+        &["compare", "f0.exr", "f0.exr", "--depth-tolerance", "0.1"],
+    ] {
+        let o = run(args, d);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+    let o = run(&["compare", "--temporal", "f0.exr"], d);
+    assert!(stderr(&o).contains("2 values required"), "{}", stderr(&o));
+}

@@ -16,7 +16,13 @@ pub const TOO_DIFFERENT: u8 = 3;
 pub struct TooDifferent(pub String);
 
 pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
-    let mut inputs = vec![args.image.as_path(), args.reference.as_path()];
+    let (image, reference) = match (&args.temporal, &args.image, &args.reference) {
+        (Some(frames), _, _) => return super::temporal::run(frames, args, limits),
+        (None, Some(image), Some(reference)) => (image, reference),
+        // clap requires both images unless --temporal is given.
+        _ => anyhow::bail!("compare needs two images, or --temporal and two or more frames"),
+    };
+    let mut inputs = vec![image.as_path(), reference.as_path()];
     inputs.extend(args.mask.as_deref());
     let mut outputs = Outputs::new(&inputs);
     let heatmap_out = args
@@ -24,13 +30,18 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
         .as_ref()
         .map(|h| outputs.add("--heatmap", h))
         .transpose()?;
-    let a = Rgba::read(&args.image, limits)?;
-    let b = Rgba::read(&args.reference, limits)?;
-    check_same_window(&a, &args.image, &b, &args.reference)?;
+    let a = Rgba::read(image, limits)?;
+    let b = Rgba::read(reference, limits)?;
+    check_same_window(&a, image, &b, reference)?;
     let all = compare(&a, &b, |_| true);
     let masked = match &args.mask {
         Some(path) => {
-            let inside = read_mask(path, (a.width, a.height), &args.mask_channel, limits)?;
+            let inside = read_mask(
+                path,
+                (a.width, a.height),
+                args.mask_channel.as_deref().unwrap_or("A"),
+                limits,
+            )?;
             let inside = block_mask(&inside, (a.width, a.height), args.mask_block as usize);
             Some(compare(&a, &b, |i| inside[i]))
         }
@@ -47,8 +58,8 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     }
     if args.json {
         let json = serde_json::json!({
-            "image": args.image,
-            "reference": args.reference,
+            "image": image,
+            "reference": reference,
             "width": a.width,
             "height": a.height,
             "all": all,
@@ -59,8 +70,8 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     } else {
         let mut text = format!(
             "{} against the reference {}: {}x{}\n",
-            args.image.display(),
-            args.reference.display(),
+            image.display(),
+            reference.display(),
             a.width,
             a.height
         );
@@ -81,8 +92,8 @@ pub fn run(args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     {
         return Err(TooDifferent(format!(
             "{} against {}: {why} (--fail-above)",
-            args.image.display(),
-            args.reference.display()
+            image.display(),
+            reference.display()
         ))
         .into());
     }

@@ -6,6 +6,7 @@ mod compare;
 mod inspect;
 mod place;
 mod render;
+mod temporal;
 
 pub use compare::{TOO_DIFFERENT, TooDifferent};
 
