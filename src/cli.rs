@@ -394,6 +394,11 @@ pub struct CompareArgs {
     /// that is not finite (for build systems and tests).
     #[arg(long, value_name = "RMSE", value_parser = non_negative)]
     pub fail_above: Option<f64>,
+    /// With --temporal: leave out the pixels where this channel of the frame is above one half
+    /// (e.g. `lod.band`: the canopy outside the hybrid's transition band, with `--mask-channel
+    /// canopy.A`).
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["image", "reference"])]
+    pub exclude_channel: Option<String>,
     /// With --temporal: how far, as a fraction of its depth, the next frame's Z may be from a
     /// point carried into it and still count as the same surface (beyond it the pixel is
     /// rejected as hidden or uncovered).

@@ -90,21 +90,47 @@ pub struct Frame {
     pub view: View,
 }
 
+/// Which pixels of a frame are measured: those where channel `inside` is above one half
+/// (every pixel without one), less those where channel `outside` is.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Mask<'a> {
+    pub inside: Option<&'a str>,
+    pub outside: Option<&'a str>,
+}
+
+impl<'a> Mask<'a> {
+    /// Every pixel.
+    pub const ALL: Mask<'static> = Mask {
+        inside: None,
+        outside: None,
+    };
+
+    /// The pixels where `channel` is above one half.
+    pub fn inside(channel: &'a str) -> Mask<'a> {
+        Mask {
+            inside: Some(channel),
+            outside: None,
+        }
+    }
+}
+
 impl Frame {
-    /// Reads R, G, B, A, Z, the camera's matrices and, if asked, the mask: the channel
-    /// `mask_channel` above one half.
-    pub fn read(
-        path: &Path,
-        mask_channel: Option<&str>,
-        limits: &Limits,
-    ) -> Result<Frame, TemporalError> {
+    /// Reads R, G, B, A, Z, the camera's matrices and, if asked, the mask's channels.
+    pub fn read(path: &Path, mask: Mask, limits: &Limits) -> Result<Frame, TemporalError> {
         let layer = ExrLayer::read(path, limits, HELD_BYTES)?;
         let rgba = layer.rgba(crate::compare::CHANNELS)?;
         let z = layer.channel("Z")?.collect();
-        let inside = match mask_channel {
+        let mut inside: Option<Vec<bool>> = match mask.inside {
             Some(name) => Some(layer.channel(name)?.map(|v| v > 0.5).collect()),
             None => None,
         };
+        if let Some(name) = mask.outside {
+            let outside: Vec<bool> = layer.channel(name)?.map(|v| v > 0.5).collect();
+            inside = Some(match inside {
+                Some(i) => i.iter().zip(&outside).map(|(&a, &b)| a && !b).collect(),
+                None => outside.iter().map(|&b| !b).collect(),
+            });
+        }
         let missing = |attribute| TemporalError::NoMatrix {
             file: path.to_path_buf(),
             attribute,
@@ -224,20 +250,20 @@ impl Tally {
 }
 
 /// The change over the frames at `paths`, in order, read one at a time (two are held), each
-/// measured inside its own `mask_channel` where one is named.
+/// measured inside its own `mask`.
 pub fn measure_files(
     paths: &[PathBuf],
-    mask_channel: Option<&str>,
+    mask: Mask,
     depth_tolerance: f64,
     limits: &Limits,
 ) -> Result<Sequence, TemporalError> {
     if paths.len() < 2 {
         return Err(TemporalError::TooFewFrames(paths.len()));
     }
-    let mut earlier = Frame::read(&paths[0], mask_channel, limits)?;
+    let mut earlier = Frame::read(&paths[0], mask, limits)?;
     let (mut pairs, mut total) = (Vec::new(), Tally::default());
     for path in &paths[1..] {
-        let later = Frame::read(path, mask_channel, limits)?;
+        let later = Frame::read(path, mask, limits)?;
         let (camera_moved, tally) = tally_pair(&earlier, &later, depth_tolerance)?;
         total.merge(&tally);
         pairs.push(Pair {
@@ -540,6 +566,10 @@ mod tests {
     }
 
     fn read(path: &Path, mask: Option<&str>) -> Frame {
+        let mask = Mask {
+            inside: mask,
+            outside: None,
+        };
         Frame::read(path, mask, &Limits::default()).unwrap()
     }
 
@@ -565,7 +595,13 @@ mod tests {
         let paths: Vec<PathBuf> = (0..3)
             .map(|n| write(dir.path(), &format!("{n}.exr"), &film, &c))
             .collect();
-        let s = measure_files(&paths, None, DEFAULT_DEPTH_TOLERANCE, &Limits::default()).unwrap();
+        let s = measure_files(
+            &paths,
+            Mask::ALL,
+            DEFAULT_DEPTH_TOLERANCE,
+            &Limits::default(),
+        )
+        .unwrap();
         let pixels = (WIDTH * HEIGHT) as usize;
         assert_eq!(s.pairs.len(), 2);
         for pair in &s.pairs {
@@ -598,7 +634,13 @@ mod tests {
                 write(dir.path(), &format!("{n}.exr"), &film, &c)
             })
             .collect();
-        let s = measure_files(&paths, None, DEFAULT_DEPTH_TOLERANCE, &Limits::default()).unwrap();
+        let s = measure_files(
+            &paths,
+            Mask::ALL,
+            DEFAULT_DEPTH_TOLERANCE,
+            &Limits::default(),
+        )
+        .unwrap();
         let two_a = f64::from(base + a) - f64::from(base - a);
         assert!((two_a - 0.2).abs() < 1e-6);
         assert_eq!(s.pairs.len(), 4);
@@ -632,7 +674,13 @@ mod tests {
                 )
             })
             .collect();
-        let s = measure_files(&paths, None, DEFAULT_DEPTH_TOLERANCE, &Limits::default()).unwrap();
+        let s = measure_files(
+            &paths,
+            Mask::ALL,
+            DEFAULT_DEPTH_TOLERANCE,
+            &Limits::default(),
+        )
+        .unwrap();
         let undone = s.total.mean_absolute.unwrap();
         let (a, b) = (read(&paths[0], None), read(&paths[1], None));
         let still = Frame {
@@ -728,26 +776,42 @@ mod tests {
             })
             .collect();
         let limits = Limits::default();
-        let masked = measure_files(&paths, Some("canopy.A"), 0.05, &limits).unwrap();
+        let masked = measure_files(&paths, Mask::inside("canopy.A"), 0.05, &limits).unwrap();
         let half = (WIDTH * HEIGHT / 2) as usize;
         assert_eq!(
             (masked.total.inside_mask, masked.total.measured),
             (2 * half, 2 * half)
         );
         assert_eq!(masked.total.mean_absolute, Some(0.0));
-        let all = measure_files(&paths, None, 0.05, &limits).unwrap();
+        let all = measure_files(&paths, Mask::ALL, 0.05, &limits).unwrap();
         assert_eq!(all.total.measured, 4 * half);
         // Half the pixels change in R alone: a sixth of the values, by 0.1.
         let mean = all.total.mean_absolute.unwrap();
         assert!((mean - 0.1 / 6.0).abs() < 1e-6, "{mean}");
+        // Leaving the mask's pixels out measures the other half, where R changes by 0.1; so
+        // does taking them in and leaving them all out again, which leaves nothing.
+        let outside = Mask {
+            inside: None,
+            outside: Some("canopy.A"),
+        };
+        let right = measure_files(&paths, outside, 0.05, &limits).unwrap();
+        assert_eq!(right.total.measured, 2 * half);
+        let mean = right.total.mean_absolute.unwrap();
+        assert!((mean - 0.1 / 3.0).abs() < 1e-6, "{mean}");
+        let neither = Mask {
+            inside: Some("canopy.A"),
+            outside: Some("canopy.A"),
+        };
+        let s = measure_files(&paths, neither, 0.05, &limits).unwrap();
+        assert_eq!(s.total.measured, 0);
         // A mask that takes nothing in measures nothing, and says so rather than divide by 0.
         let none = |_, _| 0.0;
         let film = plane().render(&c, none);
         let empty = [0, 1].map(|n| write(dir.path(), &format!("e{n}.exr"), &film, &c));
-        let s = measure_files(&empty, Some("canopy.A"), 0.05, &limits).unwrap();
+        let s = measure_files(&empty, Mask::inside("canopy.A"), 0.05, &limits).unwrap();
         assert_eq!(s.total, Change::default());
         // A channel the frames lack is named with the file.
-        let e = measure_files(&paths, Some("canopy.X"), 0.05, &limits).unwrap_err();
+        let e = measure_files(&paths, Mask::inside("canopy.X"), 0.05, &limits).unwrap_err();
         assert!(
             e.to_string().contains("0.exr") && e.to_string().contains("no channel canopy.X"),
             "{e}"
@@ -787,7 +851,7 @@ mod tests {
         let c = camera(DVec3::ZERO, DVec3::NEG_Z);
         let good = write(d, "good.exr", &plane().render(&c, everywhere), &c);
         let error = |paths: &[PathBuf]| {
-            measure_files(paths, None, 0.05, &limits)
+            measure_files(paths, Mask::ALL, 0.05, &limits)
                 .unwrap_err()
                 .to_string()
         };

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 use texel_forest::limits::Limits;
-use texel_forest::temporal::{Change, Pair, measure_files};
+use texel_forest::temporal::{Change, Mask, Pair, measure_files};
 
 use crate::cli::CompareArgs;
 
@@ -19,7 +19,16 @@ struct PairEntry<'a> {
 
 pub fn run(frames: &[PathBuf], args: &CompareArgs, limits: &Limits) -> anyhow::Result<()> {
     let mask = args.mask_channel.as_deref();
-    let sequence = measure_files(frames, mask, args.depth_tolerance, limits)?;
+    let outside = args.exclude_channel.as_deref();
+    let sequence = measure_files(
+        frames,
+        Mask {
+            inside: mask,
+            outside,
+        },
+        args.depth_tolerance,
+        limits,
+    )?;
     if args.json {
         let pairs: Vec<PairEntry> = sequence
             .pairs
@@ -34,6 +43,7 @@ pub fn run(frames: &[PathBuf], args: &CompareArgs, limits: &Limits) -> anyhow::R
         let json = serde_json::json!({
             "frames": frames,
             "mask_channel": mask,
+            "exclude_channel": outside,
             "depth_tolerance": args.depth_tolerance,
             "pairs": pairs,
             "total": sequence.total,
@@ -44,7 +54,12 @@ pub fn run(frames: &[PathBuf], args: &CompareArgs, limits: &Limits) -> anyhow::R
     let mut text = format!(
         "change of R, G, B from frame to frame, {} frames, {} (depth tolerance {})\n",
         frames.len(),
-        mask.map_or("every pixel".to_string(), |m| format!("inside {m} > 0.5")),
+        match (mask, outside) {
+            (None, None) => "every pixel".to_string(),
+            (Some(m), None) => format!("inside {m} > 0.5"),
+            (None, Some(o)) => format!("outside {o} > 0.5"),
+            (Some(m), Some(o)) => format!("inside {m} > 0.5 and outside {o} > 0.5"),
+        },
         args.depth_tolerance
     );
     for (pair, files) in sequence.pairs.iter().zip(frames.windows(2)) {
