@@ -10,7 +10,7 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
            $(OUT)/trees/$(t)-projection-z.png $(OUT)/trees/$(t)-projection-y.png \
            $(OUT)/trees/$(t)-slice-y10.png)
 
-.PHONY: demo test bench accuracy report budget fixtures formats-check animation clean FORCE
+.PHONY: demo test bench accuracy report budget flicker fixtures formats-check animation clean FORCE
 .DELETE_ON_ERROR:
 
 FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
@@ -52,6 +52,11 @@ $(OUT)/flyin.png: $(OUT)/forest.instances fixtures/paths/flyin.json $(TEXEL)
 	    --width 640 --height 360 --aov canopy,lod -o $(OUT)/flyin/frame.####.exr \
 	    --preview $(OUT)/flyin/frame.####.png --depfile $(OUT)/flyin/frames.d
 	$(TEXEL) animate $(OUT)/flyin/frame.*.png -o $@ --fps 12
+
+# Flicker along the fly-in for each method, in the canopy and in the hybrid's transition band
+# (report/flicker.png; part of `make report`).
+flicker: $(TEXEL)
+	$(CARGO) run --release --example report -- --flicker
 
 # Regenerates the procedural fixtures and the golden .texel; tests check they match.
 fixtures:

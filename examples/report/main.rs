@@ -24,6 +24,7 @@ use std::process::Command;
 use std::time::Instant;
 
 mod budget;
+mod flyin;
 
 use sha2::{Digest, Sha256};
 use texel_forest::compare::{Rgba, compare};
@@ -110,6 +111,22 @@ struct Report {
 }
 
 impl Report {
+    /// Runs texel with `args` in the work directory, and returns what it printed.
+    fn output(&self, args: &[&str]) -> Vec<u8> {
+        let o = Command::new(&self.texel)
+            .args(args)
+            .current_dir(&self.work)
+            .output()
+            .expect("texel runs");
+        assert!(
+            o.status.success(),
+            "texel {}: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        o.stdout
+    }
+
     fn run(&self, args: &[&str]) -> f64 {
         let start = Instant::now();
         let o = Command::new(&self.texel)
@@ -530,6 +547,12 @@ fn main() {
         print!("{}", budget::run(&report, &forest, &root.join("report")));
         return;
     }
+    // `make flicker`: the fly-in's flicker alone.
+    if std::env::args().any(|a| a == "--flicker") {
+        let forest = report.variant("transmittance", 32);
+        print!("{}", flyin::run(&report, &forest, &root.join("report")).1);
+        return;
+    }
 
     eprintln!("report: baking and placing the variants...");
     let variants = report.variants();
@@ -546,6 +569,7 @@ fn main() {
     }
     let flicker = report.flicker(&default_forest);
     let sweep = report.sweep(&default_forest);
+    let (_, flyin) = flyin::run(&report, &default_forest, &root.join("report"));
     let budget = budget::run(&report, &default_forest, &root.join("report"));
 
     write_outputs(
@@ -555,6 +579,7 @@ fn main() {
             flicker: &flicker,
             sweep: &sweep,
             budget: &budget,
+            flyin: &flyin,
         },
         started.elapsed().as_secs_f64(),
     );
@@ -566,6 +591,8 @@ struct Measured<'a> {
     flicker: &'a [(&'a str, f64)],
     sweep: &'a [SweepRow],
     budget: &'a str,
+    /// The fly-in's flicker section (`flyin`).
+    flyin: &'a str,
 }
 
 fn write_outputs(dir: &Path, m: &Measured, seconds: f64) {
@@ -574,6 +601,7 @@ fn write_outputs(dir: &Path, m: &Measured, seconds: f64) {
         flicker,
         sweep,
         budget,
+        flyin,
     } = *m;
     write_csv(dir, rows);
     let mut md = format!(
@@ -604,6 +632,7 @@ fn write_outputs(dir: &Path, m: &Measured, seconds: f64) {
     for (m, f) in flicker {
         writeln!(md, "| {m} | {f:.5} |").unwrap();
     }
+    md += flyin;
     for view in VIEWS.iter().map(|v| v.name) {
         write_view_section(&mut md, dir, view, rows);
     }

@@ -112,7 +112,8 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         scene.shadows = !args.no_shadows;
         let mut settings = settings(args);
         if let Some(f) = shot.frame {
-            // Each frame its own noise, and the same whichever frames render with it.
+            // Each frame its own noise, and the same whichever frames render with it; the
+            // hybrid's choice of drawing for each tree stays the sequence's.
             settings.seed = rng::hash3(args.seed, u64::from(f), rng::purpose::FRAME);
         }
         let pixels = args.crop.map_or(
@@ -329,6 +330,7 @@ fn settings(args: &RenderArgs) -> RenderSettings {
         },
         crop: args.crop,
         seed: args.seed,
+        lod_seed: args.seed,
     }
 }
 

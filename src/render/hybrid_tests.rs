@@ -13,6 +13,7 @@ use super::walk::March;
 use super::{Camera, Film, Method, RenderSettings, render};
 use crate::bake::{self, BakeSettings};
 use crate::import::{AlphaMode, Mesh};
+use crate::rng::{self, purpose};
 
 /// An opaque box 2 m across standing on the origin, its mesh and its texture baked from it.
 fn boxed_tree() -> (crate::volume::Texel, TreeMesh) {
@@ -121,11 +122,12 @@ fn a_tree_well_inside_each_regime_renders_as_the_pure_method() {
     }
 }
 
-/// Inside the band each sample draws the tree one way or the other, the texture with the
-/// probability `lod::Draw::texel_probability` gives: the frame is that blend of the two pure
-/// frames, up to the draws' noise.
+/// Inside the band each tree is drawn one way or the other for the whole frame (and for
+/// every frame of a sequence that shares the frame's `lod_seed`), the texture with the
+/// probability `lod::Draw::texel_probability` gives: each frame is one of the pure frames, bit
+/// for bit, and over seeds the expected frame is their blend.
 #[test]
-fn in_the_band_the_expected_image_is_the_blend_of_the_two() {
+fn in_the_band_each_frame_draws_a_tree_one_way_and_the_seeds_blend_them() {
     // A texture and a model that look different: a grey cloud against a white slab.
     let cloud = uniform_texel([8, 8, 2], 0.5, DVec3::new(-2.0, -2.0, -0.5), 0.7, [0.2; 3]);
     let slab = bark(&[SQUARE.map(|p| p * 0.75)], 0.9);
@@ -155,31 +157,53 @@ fn in_the_band_the_expected_image_is_the_blend_of_the_two() {
     };
     let p = Draw::texel_probability(&scene, &lod, spread, 0);
     assert!((p - 0.3).abs() < 0.02, "{p}");
-    let mean = |f: &Film| f.rgba.iter().map(|q| f64::from(q[0])).sum::<f64>() / 576.0;
-    let texel = mean(&image(&scene, &camera, Method::Texel, lod, spp));
-    let mesh = mean(&image(&scene, &camera, Method::Mesh, lod, spp));
-    let hybrid = image(&scene, &camera, Method::Hybrid, lod, spp);
-    let blend = f64::from(p) * texel + f64::from(1.0 - p) * mesh;
-    assert!(
-        (mesh - texel).abs() > 0.1,
-        "the two must differ: {texel} {mesh}"
-    );
-    // The samples are the pure methods' own (the same keys), so only the choices are noise:
-    // about 12,000 samples where the two differ by about 0.9, a standard deviation of 0.0012
-    // in the mean.
-    assert!(
-        (mean(&hybrid) - blend).abs() < 0.005,
-        "hybrid {} against the blend {blend} (texel {texel}, mesh {mesh})",
-        mean(&hybrid)
-    );
-    // What the meshes drew, as the lod AOV reports it: the blend's share of the coverage.
-    let texel_coverage = hybrid.canopy.iter().sum::<f32>() - hybrid.mesh_canopy.iter().sum::<f32>();
-    assert!(texel_coverage > 0.0 && hybrid.mesh_canopy.iter().any(|&m| m > 0.0));
-    // The one tree is in the band: all of the canopy is the band's, however it was drawn.
-    for (b, c) in hybrid.band_canopy.iter().zip(&hybrid.canopy) {
-        assert!((b - c).abs() < 1e-5, "band {b} of canopy {c}");
+    let pure = |method| {
+        let f = image(&scene, &camera, method, lod, spp);
+        (bits(&f), f)
+    };
+    let ((texel, texel_film), (mesh, _)) = (pure(Method::Texel), pure(Method::Mesh));
+    assert_ne!(texel, mesh, "the two must differ");
+    let mut drawn = [false; 2];
+    for lod_seed in 0..8 {
+        let hybrid = render(
+            &scene,
+            &camera,
+            &RenderSettings {
+                method: Method::Hybrid,
+                spp,
+                lod,
+                lod_seed,
+                ..RenderSettings::default()
+            },
+            &|_| {},
+        );
+        let key = rng::hash3(lod_seed, 0, purpose::LOD);
+        let as_texture = Draw::hybrid(lod, spread, key).texel(&scene, 0);
+        drawn[usize::from(as_texture)] = true;
+        let expected = if as_texture { &texel } else { &mesh };
+        assert!(bits(&hybrid) == *expected, "seed {lod_seed}");
+        // The one tree is in the band: all of the canopy is the band's, however it was drawn.
+        for (b, c) in hybrid.band_canopy.iter().zip(&hybrid.canopy) {
+            assert!((b - c).abs() < 1e-5, "band {b} of canopy {c}");
+        }
+        assert!(hybrid.band_canopy.iter().any(|&b| b > 0.5));
     }
-    assert!(hybrid.band_canopy.iter().any(|&b| b > 0.5));
+    assert_eq!(drawn, [true; 2], "these seeds draw the tree both ways");
+    assert!(texel_film.band_canopy.iter().all(|&b| b == 0.0));
+    // Over seeds the tree is a texture with probability p: the expected frame is the blend.
+    // 40,000 draws: a standard deviation of 0.0023 in the fraction.
+    let n = 40_000;
+    let textures = (0..n)
+        .filter(|&s| {
+            let key = rng::hash3(s, 0, purpose::LOD);
+            Draw::hybrid(lod, spread, key).texel(&scene, 0)
+        })
+        .count();
+    let fraction = textures as f64 / n as f64;
+    assert!(
+        (fraction - f64::from(p)).abs() < 0.01,
+        "{fraction} against {p}"
+    );
 }
 
 /// A cloud of black texture (transmittance 1/2 through it) in front of an opaque white slab
@@ -241,7 +265,7 @@ fn textures_composite_over_meshes_in_depth_order() {
         cutoff: 0.0,
         ..March::default()
     };
-    let ray = |scene: &Scene| integrate::hybrid(scene, Vec3::NEG_Z, spread, 9, &march, lod);
+    let ray = |scene: &Scene| integrate::hybrid(scene, Vec3::NEG_Z, spread, (9, 1), &march, lod);
     let front = at(3.0);
     assert!(draw.texel(&front, 0) && !draw.texel(&front, 1));
     let r = ray(&front);

@@ -53,12 +53,13 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
 }
 
 /// [`radiance`] with each tree drawn as `lod` chooses for this sample: from its texture or
-/// from its polygon model (which needs [`Scene::with_meshes`]).
+/// from its polygon model (which needs [`Scene::with_meshes`]); `lod_key` keys the draws of
+/// the trees in the transition band.
 pub fn hybrid(
     scene: &Scene,
     dir: Vec3,
     spread: f32,
-    key: u64,
+    (key, lod_key): (u64, u64),
     march: &March,
     lod: Lod,
 ) -> Radiance {
@@ -68,7 +69,7 @@ pub fn hybrid(
         spread,
         key,
         march,
-        Draw::hybrid(lod, spread, key),
+        Draw::hybrid(lod, spread, lod_key),
     )
 }
 

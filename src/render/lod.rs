@@ -46,7 +46,7 @@ pub enum Draw {
         lod: Lod,
         /// The sample's footprint per metre of distance (radians).
         spread: f32,
-        /// The sample's key: the choice's draws.
+        /// Keys the choice's draws, one per tree: the frame's (`RenderSettings::lod_seed`).
         key: u64,
         /// `lod`'s band ends ([`Lod::ends`]), worked out once per sample, not once per tree.
         ends: (f32, f32),

@@ -67,6 +67,11 @@ pub struct RenderSettings {
     /// x0, y0, x1, y1 (exclusive) of the part of the frame to render.
     pub crop: Option<[u32; 4]>,
     pub seed: u64,
+    /// Keys the hybrid method's draw of each tree in the transition band: one draw per tree
+    /// for the whole frame, and for every frame of a sequence that shares it, so that a tree
+    /// changes representation once as the camera comes nearer rather than from frame to
+    /// frame. Over seeds, a tree is a texture with the band's probability.
+    pub lod_seed: u64,
 }
 
 impl Default for RenderSettings {
@@ -78,6 +83,7 @@ impl Default for RenderSettings {
             lod: Lod::default(),
             crop: None,
             seed: 0,
+            lod_seed: 0,
         }
     }
 }
@@ -174,7 +180,15 @@ fn pixel(
             Method::Texel => integrate::radiance(scene, dir, spread, ray_key, &settings.march),
             Method::Mesh => mesh::radiance(scene, dir, ray_key),
             Method::Hybrid => {
-                integrate::hybrid(scene, dir, spread, ray_key, &settings.march, settings.lod)
+                let lod_key = rng::hash3(settings.lod_seed, 0, rng::purpose::LOD);
+                integrate::hybrid(
+                    scene,
+                    dir,
+                    spread,
+                    (ray_key, lod_key),
+                    &settings.march,
+                    settings.lod,
+                )
             }
         };
         for c in 0..3 {
