@@ -243,6 +243,19 @@ fn sequences_that_cannot_be_written_or_read_are_refused_before_rendering() {
     .unwrap();
     let o = render(d, &["--camera-path", "bad.json", "-o", "f.#.exr"]);
     assert_error(&o, &["bad.json", "keys[1].time", "not after"]);
+    // A camera name means nothing to a keyframe file.
+    let o = render(
+        d,
+        &[
+            "--camera-path",
+            "fly.json",
+            "--camera",
+            "drone",
+            "-o",
+            "f.#.exr",
+        ],
+    );
+    assert_error(&o, &["fly.json", "drone", "keyframe file"]);
     // Frames backwards, and a path with --eye.
     // Previews of different sizes do not animate; the error names the odd one.
     for (name, size) in [("a.png", "16"), ("b.png", "17")] {

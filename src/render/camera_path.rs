@@ -98,6 +98,16 @@ impl CameraPath {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("json"));
         if is_json {
+            if let Some(name) = camera {
+                return Err(PathError::Keys {
+                    file: path.to_path_buf(),
+                    field: String::new(),
+                    message: format!(
+                        "--camera {name:?} names a glTF camera, and this is a keyframe file \
+                         (.json), which holds one camera"
+                    ),
+                });
+            }
             return Ok((
                 CameraPath::Keys(Keyframes::read(path)?),
                 vec![path.to_path_buf()],
