@@ -127,19 +127,10 @@ impl Report {
         o.stdout
     }
 
+    /// Runs texel with `args` in the work directory, and returns its wall time.
     fn run(&self, args: &[&str]) -> f64 {
         let start = Instant::now();
-        let o = Command::new(&self.texel)
-            .args(args)
-            .current_dir(&self.work)
-            .output()
-            .expect("texel runs");
-        assert!(
-            o.status.success(),
-            "texel {}: {}",
-            args.join(" "),
-            String::from_utf8_lossy(&o.stderr)
-        );
+        self.output(args);
         start.elapsed().as_secs_f64()
     }
 

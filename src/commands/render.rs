@@ -21,6 +21,12 @@ use texel_forest::rng;
 
 use crate::cli::{AovArg, MethodArg, RenderArgs, ShadowsArg};
 
+/// Where a run's camera comes from.
+enum Aim<'a> {
+    Path(&'a CameraPath),
+    Still(Camera),
+}
+
 /// One image a run renders: a still, or one frame of a sequence.
 struct Shot {
     /// The frame number, for a sequence.
@@ -62,9 +68,10 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     if let Some((_, files)) = &path {
         dependencies.extend(files.iter().cloned());
     }
-    let still = match &path {
-        Some(_) => None,
-        None => Some(camera(args, &loaded, &views)?),
+    // Where the camera comes from: the path, frame by frame, or the flags, once.
+    let aim = match &path {
+        Some((p, _)) => Aim::Path(p),
+        None => Aim::Still(camera(args, &loaded, &views)?),
     };
     let lighting = Lighting {
         sun: view::sun(args.sun, &views.suns),
@@ -77,8 +84,8 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     // The sun-depth grids do not depend on the eye: built once for the whole sequence.
     let mut grids = None;
     for (n, shot) in shots.iter().enumerate() {
-        let camera = match (&path, still) {
-            (Some((p, _)), _) => {
+        let camera = match &aim {
+            Aim::Path(p) => {
                 let time = f64::from(shot.frame.unwrap_or(0)) / args.fps;
                 let c = p
                     .camera(time, args.fov, view::DEFAULT_FOV, size)
@@ -88,8 +95,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
                 }
                 c
             }
-            (None, Some(c)) => c,
-            (None, None) => unreachable!("a still camera is made wherever there is no path"),
+            Aim::Still(c) => *c,
         };
         let build_start = Instant::now();
         // The last shot may take what was loaded; earlier ones build from a copy, each frame's
