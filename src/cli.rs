@@ -395,7 +395,7 @@ pub struct CompareArgs {
     #[arg(long, value_name = "RMSE", value_parser = non_negative)]
     pub fail_above: Option<f64>,
     /// With --temporal: leave out the pixels where this channel of the frame is above one half
-    /// (e.g. `lod.band`: the canopy outside the hybrid's transition band, with `--mask-channel
+    /// (e.g. `lod_band.A`: the canopy outside the hybrid's transition band, with `--mask-channel
     /// canopy.A`).
     #[arg(long, value_name = "NAME", conflicts_with_all = ["image", "reference"])]
     pub exclude_channel: Option<String>,
@@ -499,7 +499,8 @@ pub struct RenderArgs {
     /// Also write an sRGB preview over a sky, for people.
     #[arg(long, value_name = "FRAME.png")]
     pub preview: Option<PathBuf>,
-    /// Extra EXR layers: normal, albedo, canopy, species, lod, samples (comma-separated).
+    /// Extra EXR layers: normal, albedo, canopy, species, lod, samples, cryptomatte
+    /// (comma-separated).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub aov: Vec<AovArg>,
     /// Write colour and AOVs as half floats (depth stays float).
@@ -577,11 +578,14 @@ pub enum AovArg {
     Albedo,
     Canopy,
     Species,
-    /// Coverage drawn by meshes and by textures (lod.mesh, lod.texel), and by trees in the
-    /// transition band (lod.band): the hybrid method's transitions.
+    /// Coverage drawn by meshes and by textures (lod_mesh.A, lod_texel.A), and by trees in the
+    /// transition band (lod_band.A): the hybrid method's transitions.
     Lod,
     /// Volume samples and shadow rays per pixel: where the time goes.
     Samples,
+    /// Cryptomatte ID mattes by species (CryptoSpecies) and by tree (CryptoInstance), with
+    /// their manifests: pick species or single trees in Nuke's or Blender's Cryptomatte node.
+    Cryptomatte,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -558,7 +558,13 @@ mod tests {
             ..Aovs::default()
         };
         let exr = film
-            .exr_bytes(false, aovs, camera.world_to_camera(), camera.world_to_ndc())
+            .exr_bytes(
+                false,
+                aovs,
+                camera.world_to_camera(),
+                camera.world_to_ndc(),
+                None,
+            )
             .unwrap();
         let path = dir.join(name);
         std::fs::write(&path, exr.bytes).unwrap();

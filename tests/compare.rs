@@ -205,7 +205,13 @@ fn write_frame(path: &Path, rgba: impl Fn(u32, u32) -> [f32; 4]) {
         ..Aovs::default()
     };
     let exr = film
-        .exr_bytes(false, aovs, camera.world_to_camera(), camera.world_to_ndc())
+        .exr_bytes(
+            false,
+            aovs,
+            camera.world_to_camera(),
+            camera.world_to_ndc(),
+            None,
+        )
         .unwrap();
     std::fs::write(path, exr.bytes).unwrap();
 }

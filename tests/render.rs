@@ -39,10 +39,10 @@ fn renders_an_exr_that_openexr_reads_with_depth_aovs_and_camera_matrices() {
         "B",
         "A",
         "Z",
-        "normal.X",
+        "N.X",
         "albedo.G",
         "canopy.A",
-        "species.id",
+        "species.X",
     ] {
         assert!(
             names.iter().any(|n| n == want),
@@ -86,7 +86,7 @@ fn renders_an_exr_that_openexr_reads_with_depth_aovs_and_camera_matrices() {
         Ok(o) => {
             let text = String::from_utf8_lossy(&o.stdout);
             assert!(o.status.success(), "exrheader: {}", stderr(&o));
-            for needle in ["worldToCamera", "worldToNDC", "normal.X", "species.id"] {
+            for needle in ["worldToCamera", "worldToNDC", "N.X", "species.X"] {
                 assert!(text.contains(needle), "{needle} missing from {text}");
             }
         }
@@ -144,7 +144,7 @@ fn a_crop_equals_its_region_of_the_full_frame_and_threads_do_not_matter() {
                 .values_as_f32()
                 .collect::<Vec<f32>>()
         };
-        for name in ["R", "A", "Z", "lod.mesh"] {
+        for name in ["R", "A", "Z", "lod_mesh.A"] {
             let (fv, cv) = (values(f, name), values(c, name));
             for y in 0..25 {
                 for x in 0..30 {
@@ -159,7 +159,7 @@ fn a_crop_equals_its_region_of_the_full_frame_and_threads_do_not_matter() {
         // The representation layers split the canopy between them; the texel method draws no
         // tree as a model, the hybrid here draws some each way.
         let sum = |name: &str| values(f, name).iter().map(|&v| f64::from(v)).sum::<f64>();
-        let (mesh, texel, canopy) = (sum("lod.mesh"), sum("lod.texel"), sum("canopy.A"));
+        let (mesh, texel, canopy) = (sum("lod_mesh.A"), sum("lod_texel.A"), sum("canopy.A"));
         assert!(
             (mesh + texel - canopy).abs() < 0.01 * canopy + 0.1,
             "{mesh} + {texel} against {canopy}"
@@ -510,4 +510,107 @@ fn a_texel_older_than_1_2_is_refused_with_a_message_to_rebake() {
     let o = render(dir.path(), &["-o", "old.exr"]);
     assert_error(&o, &["trees/conifer.texel", "texel 1.1", "re-bake it"]);
     assert!(!dir.path().join("old.exr").exists());
+}
+
+/// `--aov cryptomatte`: Cryptomatte's layers for species and trees, always 32-bit floats, the
+/// header naming each type with its manifest; per pixel the coverages (the background's
+/// included) add up to one and the objects' to the pixel's alpha.
+#[test]
+fn cryptomatte_layers_cover_each_pixel_by_species_and_tree() {
+    use exr::prelude::{AttributeValue, FlatSamples};
+    let dir = small_forest();
+    let o = render(
+        dir.path(),
+        &["-o", "crypto.exr", "--half", "--aov", "cryptomatte"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let image =
+        exr::prelude::read_all_flat_layers_from_file(dir.path().join("crypto.exr")).unwrap();
+    let layer = &image.layer_data[0];
+    let text = |key: &str| -> Option<String> {
+        layer.attributes.other.iter().find_map(|(k, v)| match v {
+            AttributeValue::Text(t) if *k == *key => {
+                Some(String::from_utf8(t.bytes().to_vec()).unwrap())
+            }
+            _ => None,
+        })
+    };
+    let channel = |name: &str| {
+        let c = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .unwrap_or_else(|| panic!("{name} missing"));
+        match &c.sample_data {
+            FlatSamples::F32(v) => v.clone(),
+            _ => panic!("{name} must be 32-bit float"),
+        }
+    };
+    let alpha: Vec<f32> = layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.to_string() == "A")
+        .unwrap()
+        .sample_data
+        .values_as_f32()
+        .collect();
+    for (name, key, prefix) in [
+        ("CryptoSpecies", "7bc3981", ""),
+        ("CryptoInstance", "", "/"),
+    ] {
+        let key = if key.is_empty() {
+            format!(
+                "{:08x}",
+                texel_forest::cryptomatte::murmur3_32(name.as_bytes(), 0)
+            )[..7]
+                .to_string()
+        } else {
+            key.to_string()
+        };
+        let attr = |a: &str| text(&format!("cryptomatte/{key}/{a}")).unwrap();
+        assert_eq!(attr("name"), name);
+        assert_eq!(attr("hash"), "MurmurHash3_32");
+        assert_eq!(attr("conversion"), "uint32_to_float32");
+        let manifest: std::collections::BTreeMap<String, String> =
+            serde_json::from_str(&attr("manifest")).unwrap();
+        let ids: std::collections::HashMap<u32, &str> = manifest
+            .iter()
+            .map(|(n, h)| (u32::from_str_radix(h, 16).unwrap(), n.as_str()))
+            .collect();
+        assert_eq!(ids.len(), manifest.len(), "no two names share an id here");
+        let ranks: Vec<(Vec<f32>, Vec<f32>)> = (0..4)
+            .flat_map(|l| {
+                let c = |ch: &str| channel(&format!("{name}{l:02}.{ch}"));
+                [(c("R"), c("G")), (c("B"), c("A"))]
+            })
+            .collect();
+        let mut trees = 0;
+        for (i, &a) in alpha.iter().enumerate() {
+            let (mut all, mut objects) = (0.0f32, 0.0f32);
+            for (id, coverage) in &ranks {
+                all += coverage[i];
+                if id[i] != 0.0 {
+                    objects += coverage[i];
+                    let name = ids.get(&id[i].to_bits()).expect("every id in the manifest");
+                    trees += usize::from(name.contains(prefix) && !prefix.is_empty());
+                }
+            }
+            if ranks[7].1[i] == 0.0 {
+                // Every object kept: the coverages are the whole pixel.
+                assert!((all - 1.0).abs() < 2e-3, "{name} pixel {i}: {all}");
+                assert!(
+                    (objects - a).abs() < 2e-3,
+                    "{name} pixel {i}: {objects} against {a}"
+                );
+            }
+        }
+        if prefix.is_empty() {
+            assert!(manifest.contains_key("terrain") && manifest.contains_key("red pine"));
+        } else {
+            assert!(trees > 100, "pixels covered by trees: {trees}");
+            assert!(manifest.keys().all(|n| n == "terrain" || n.contains('/')));
+        }
+    }
 }

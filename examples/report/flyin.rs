@@ -2,7 +2,7 @@
 //! along `fixtures/paths/flyin.json` (from the far view down to the mountain's flank) by each
 //! method, every frame, and `texel compare --temporal` of each sequence inside the canopy
 //! (`canopy.A`), the camera's motion undone by reprojection. The hybrid's is also split
-//! between the trees in its transition band (`lod.band`: drawn either way by chance, where a
+//! between the trees in its transition band (`lod_band.A`: drawn either way by chance, where a
 //! tree could pop) and the rest of the canopy.
 //!
 //! Each frame is a new seed, so a method's noise is part of its flicker, as a viewer sees it.
@@ -93,7 +93,7 @@ pub fn run(report: &Report, forest: &str, dir: &Path) -> (Vec<Flicker>, String) 
         let (canopy, _) = measure(&["--mask-channel", "canopy.A"]);
         let hybrid = method.starts_with("hybrid");
         let (band, band_pixels) = if hybrid {
-            let (b, n) = measure(&["--mask-channel", "lod.band"]);
+            let (b, n) = measure(&["--mask-channel", "lod_band.A"]);
             (Some(b), n)
         } else {
             (None, 0)
@@ -103,7 +103,7 @@ pub fn run(report: &Report, forest: &str, dir: &Path) -> (Vec<Flicker>, String) 
                 "--mask-channel",
                 "canopy.A",
                 "--exclude-channel",
-                "lod.band",
+                "lod_band.A",
             ])
             .0
         });
@@ -132,7 +132,7 @@ fn write(dir: &Path, rows: &[Flicker]) -> String {
          far view down to the mountain's flank; `texel compare --temporal` of each sequence \
          (mean absolute change of R, G, B from frame to frame, the camera's motion undone by \
          reprojection), inside the canopy (`canopy.A` > 0.5), and for the hybrid inside its \
-         transition band (`lod.band` > 0.5) and in the rest of the canopy. Time: the whole \
+         transition band (`lod_band.A` > 0.5) and in the rest of the canopy. Time: the whole \
          sequence, one process.\n\n\
          ![](flicker.png)\n\n\
          | method | seconds | flicker in the canopy | in the band | rest of the canopy |\n\

@@ -13,8 +13,8 @@ use texel_forest::output::{Outputs, depfile_for};
 use texel_forest::render::camera_path::CameraPath;
 use texel_forest::render::load::{self, LoadedScene, SceneRequest};
 use texel_forest::render::{
-    self, Aovs, Camera, Film, Lighting, Lod, March, Method, RenderSettings, Shading, ShadowRays,
-    film,
+    self, Aovs, Camera, Film, Lighting, Lod, March, MatteNames, Method, RenderSettings, Shading,
+    ShadowRays, film,
     view::{self, CameraChoice},
 };
 use texel_forest::rng;
@@ -79,6 +79,13 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         sky: args.sky.map(|s| DVec3::from(s).as_vec3()),
     };
     let size = (args.width, args.height);
+    let species: Vec<String> = loaded
+        .forest
+        .info
+        .species
+        .iter()
+        .map(|s| s.name.clone())
+        .collect();
     let sequence = shots.len() > 1 || shots[0].frame.is_some();
     let mut loaded = Some(loaded);
     // The sun-depth grids do not depend on the eye: built once for the whole sequence.
@@ -139,7 +146,8 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
                 let targets: Vec<&Path> = shots.iter().map(|s| s.exr.as_path()).collect();
                 (d.as_path(), depfile_for(&targets, &dependencies))
             });
-        write(args, shot, &film, &camera, &dependencies, depfile)?;
+        let names = MatteNames::new(species.clone(), &scene);
+        write(args, shot, &film, (&camera, &names), &dependencies, depfile)?;
         if !quiet {
             let what = if sequence {
                 format!("frame {}: ", shot.frame.unwrap_or(0))
@@ -243,8 +251,14 @@ fn numbered(flag: &str, path: &Path, frame: u32, count: usize) -> anyhow::Result
 fn plan(args: &RenderArgs, limits: &Limits, shots: &[Shot]) -> anyhow::Result<Outputs> {
     let pixels = u64::from(args.width) * u64::from(args.height);
     limits.check_pixels(pixels, "--width x --height")?;
+    let per_pixel = film::BYTES_PER_PIXEL
+        + if args.aov.contains(&AovArg::Cryptomatte) {
+            film::CRYPTOMATTE_BYTES_PER_PIXEL
+        } else {
+            0
+        };
     check_memory(
-        pixels.saturating_mul(film::BYTES_PER_PIXEL),
+        pixels.saturating_mul(per_pixel),
         &format!("a {}x{} frame", args.width, args.height),
     )?;
     if let Some([x0, y0, x1, y1]) = args.crop
@@ -337,6 +351,7 @@ fn settings(args: &RenderArgs) -> RenderSettings {
         crop: args.crop,
         seed: args.seed,
         lod_seed: args.seed,
+        mattes: args.aov.contains(&AovArg::Cryptomatte),
     }
 }
 
@@ -356,7 +371,7 @@ fn write(
     args: &RenderArgs,
     shot: &Shot,
     film: &Film,
-    camera: &Camera,
+    (camera, names): (&Camera, &MatteNames),
     dependencies: &[PathBuf],
     depfile: Option<(&Path, String)>,
 ) -> anyhow::Result<()> {
@@ -370,6 +385,7 @@ fn write(
         species: args.aov.contains(&AovArg::Species),
         lod: args.aov.contains(&AovArg::Lod),
         samples: args.aov.contains(&AovArg::Samples),
+        cryptomatte: args.aov.contains(&AovArg::Cryptomatte),
     };
     let exr = film
         .exr_bytes(
@@ -377,6 +393,7 @@ fn write(
             aovs,
             camera.world_to_camera(),
             camera.world_to_ndc(),
+            Some(names),
         )
         .map_err(|e| anyhow::anyhow!("{}: cannot encode: {e}", shot.exr.display()))?;
     if exr.clamped > 0 {

@@ -4,7 +4,10 @@
 use exr::prelude::*;
 use glam::Vec3;
 
+use super::Mattes;
+use super::matte::{self, MatteNames};
 use crate::color::to_srgb8;
+use crate::cryptomatte;
 
 /// Extra layers a render can write beside RGBA and Z.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -17,6 +20,8 @@ pub struct Aovs {
     pub lod: bool,
     /// Where the time goes: volume samples and shadow rays per pixel.
     pub samples: bool,
+    /// Cryptomatte ID mattes by species and by tree (needs the film's `mattes`).
+    pub cryptomatte: bool,
 }
 
 /// An encoded OpenEXR file, and how many values were clamped to fit half floats.
@@ -28,7 +33,11 @@ pub struct Exr {
 /// Most bytes a render holds per pixel: the film's layers, the pixels the tiles hand back, and
 /// the EXR being encoded (checked with [`crate::limits::check_memory`] before a render starts;
 /// a test in `render` sums them from the types).
-pub const BYTES_PER_PIXEL: u64 = 320;
+pub const BYTES_PER_PIXEL: u64 = 336;
+
+/// What Cryptomatte adds to [`BYTES_PER_PIXEL`]: the film's ranks, the tiles' (boxed), and
+/// the EXR's 32 float channels twice, as samples and encoded.
+pub const CRYPTOMATTE_BYTES_PER_PIXEL: u64 = 560;
 
 /// Largest finite half float.
 const HALF_MAX: f32 = 65504.0;
@@ -58,6 +67,9 @@ pub struct Film {
     /// Volume samples along the pixel's view rays (all of its samples), and shadow rays cast.
     pub samples: Vec<f32>,
     pub shadow_rays: Vec<f32>,
+    /// Each pixel's coverage by tree and species, where the render recorded it
+    /// ([`super::RenderSettings::mattes`]); else empty.
+    pub mattes: Vec<Mattes>,
 }
 
 impl Film {
@@ -79,21 +91,42 @@ impl Film {
             species: vec![0.0; n],
             samples: vec![0.0; n],
             shadow_rays: vec![0.0; n],
+            mattes: Vec::new(),
         }
     }
 
     /// An OpenEXR file: channels R, G, B, A, Z (half or float) and the asked-for AOVs, the data
     /// window placed within the full frame's display window, the camera matrices as
-    /// `worldToCamera` and `worldToNDC`.
+    /// `worldToCamera` and `worldToNDC`. Cryptomatte names its objects by `names`.
     pub fn exr_bytes(
         &self,
         half: bool,
         aovs: Aovs,
         world_to_camera: [f32; 16],
         world_to_ndc: [f32; 16],
+        names: Option<&MatteNames>,
     ) -> std::result::Result<Exr, String> {
-        let (channels, clamped) = self.channels(half, aovs);
+        let (mut channels, clamped) = self.channels(half, aovs);
+        let mut other = std::collections::HashMap::new();
+        if aovs.cryptomatte {
+            let names = names.ok_or("Cryptomatte needs the names of the scene's objects")?;
+            if self.mattes.len() != self.rgba.len() {
+                return Err("Cryptomatte needs a render that recorded coverage by object".into());
+            }
+            for layer in self.cryptomatte_layers(names) {
+                for (key, value) in layer.attributes() {
+                    other.insert(
+                        Text::from(key.as_str()),
+                        AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())),
+                    );
+                }
+                for (name, values) in layer.into_channels() {
+                    channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values)));
+                }
+            }
+        }
         let attributes = LayerAttributes {
+            other,
             world_to_camera: Some(world_to_camera),
             world_to_normalized_device: Some(world_to_ndc),
             software_name: Some(Text::from(concat!(
@@ -165,7 +198,7 @@ impl Film {
             ),
         ];
         if aovs.normal {
-            for (c, name) in ["normal.X", "normal.Y", "normal.Z"].iter().enumerate() {
+            for (c, name) in ["N.X", "N.Y", "N.Z"].iter().enumerate() {
                 channels.push(AnyChannel::new(
                     *name,
                     samples(column(&|i| self.normal[i][c])),
@@ -186,40 +219,68 @@ impl Film {
         if aovs.lod {
             // Coverage by representation: the two add up to canopy.A.
             channels.push(AnyChannel::new(
-                "lod.mesh",
+                "lod_mesh.A",
                 samples(self.mesh_canopy.clone()),
             ));
             channels.push(AnyChannel::new(
-                "lod.texel",
+                "lod_texel.A",
                 samples(column(&|i| (self.canopy[i] - self.mesh_canopy[i]).max(0.0))),
             ));
             // Of that canopy, what trees in the transition band drew (either way, by chance):
             // where a moving camera would see trees change representation.
             channels.push(AnyChannel::new(
-                "lod.band",
+                "lod_band.A",
                 samples(self.band_canopy.clone()),
             ));
         }
         if aovs.species {
             channels.push(AnyChannel::new(
-                "species.id",
+                "species.X",
                 FlatSamples::F32(finite(&self.species)),
             ));
         }
         if aovs.samples {
             channels.push(AnyChannel::new(
-                "samples.view",
+                "samples_view.X",
                 FlatSamples::F32(finite(&self.samples)),
             ));
             channels.push(AnyChannel::new(
-                "samples.shadow",
+                "samples_shadow.X",
                 FlatSamples::F32(finite(&self.shadow_rays)),
             ));
         }
         (channels, clamped.get())
     }
 
-    /// An sRGB picture for people: the radiance composited over `sky` (linear), clipped.
+    /// The Cryptomatte types: species (with the terrain and the sky) and trees. Each pixel's
+    /// objects, and the background (the transparent sky) covering the rest.
+    fn cryptomatte_layers(&self, names: &MatteNames) -> [cryptomatte::Layer; 2] {
+        let n = self.mattes.len();
+        let layer = |name: &str,
+                     ranks: &dyn Fn(&Mattes) -> &matte::Ranks,
+                     object_name: &dyn Fn(u32) -> String| {
+            cryptomatte::Layer::new(
+                name,
+                matte::RANKS,
+                n,
+                |i| {
+                    let background = (None, 1.0 - self.rgba[i][3]);
+                    ranks(&self.mattes[i])
+                        .iter()
+                        .map(|&(o, c)| (Some(o), c))
+                        .chain(std::iter::once(background))
+                },
+                object_name,
+            )
+        };
+        [
+            layer("CryptoSpecies", &|m| &m.species, &|o| {
+                names.species(o).to_string()
+            }),
+            layer("CryptoInstance", &|m| &m.trees, &|o| names.tree(o)),
+        ]
+    }
+
     /// Mean volume samples and shadow rays per pixel over the whole window.
     pub fn work(&self) -> (f64, f64) {
         let n = self.samples.len().max(1) as f64;
@@ -227,6 +288,7 @@ impl Film {
         (mean(&self.samples), mean(&self.shadow_rays))
     }
 
+    /// An sRGB picture for people: the radiance composited over `sky` (linear), clipped.
     pub fn preview(&self, sky: Vec3) -> image::RgbImage {
         image::RgbImage::from_fn(self.width, self.height, |x, y| {
             let p = self.rgba[(x + self.width * y) as usize];

@@ -16,7 +16,7 @@ use crate::import::{AlphaMode, Mesh};
 use crate::rng::{self, purpose};
 
 /// An opaque box 2 m across standing on the origin, its mesh and its texture baked from it.
-fn boxed_tree() -> (crate::volume::Texel, TreeMesh) {
+pub(super) fn boxed_tree() -> (crate::volume::Texel, TreeMesh) {
     let faces = cuboid(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0));
     let model = bark(&faces, 0.5);
     let texel = bake::bake(

@@ -36,6 +36,7 @@
 use glam::Vec3;
 
 use super::lod::{Draw, Lod};
+use super::matte;
 use super::mesh::{self, TreeHit};
 use super::scene::Scene;
 use super::shading::{Radiance, shade, shade_ground, sun_radiance};
@@ -108,6 +109,9 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
     let mut transmittance = 1.0f32;
     let mut t = 0.0f32;
     let mut segment = 0u64;
+    // With mattes, each segment's trees and their extinctions (`render::matte`).
+    let record = matte::recording();
+    let mut each = Vec::new();
     SURFACES.with_borrow_mut(|s| s.clear());
     while textures && let Some(start) = walk.advance(t) {
         t = start;
@@ -139,7 +143,8 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
             .iter()
             .map(|a| a.step)
             .fold(f32::INFINITY, f32::min);
-        let m = mix(scene, &walk.active, ts);
+        each.clear();
+        let m = mix(scene, &walk.active, ts, record.then_some(&mut each));
         out.samples += u32::from(m.read);
         let sigma = m.sigma();
         let length = end - t;
@@ -163,6 +168,9 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
         };
         let source = scatter(scene, &walk.active, &sample, march, &mut out.shadow_rays);
         out.rgb += source * share;
+        if record {
+            matte::add_split(&each, share);
+        }
         if draw.in_band(scene, walk.active[m.home].instance) {
             out.band_canopy += share;
         }
@@ -344,7 +352,8 @@ impl Mix {
     }
 }
 
-fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
+/// `each`, where given, gets every instance's extinction there.
+fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32, f32)>>) -> Mix {
     let mut m = Mix {
         wood: 0.0,
         foliage: 0.0,
@@ -375,6 +384,9 @@ fn mix(scene: &Scene, active: &[Active], ts: f32) -> Mix {
         let s = wood + foliage;
         if s <= 0.0 {
             continue;
+        }
+        if let Some(e) = each.as_deref_mut() {
+            e.push((a.instance, s));
         }
         m.wood += wood;
         m.wood_shown += wood * level.wood_weight;
@@ -453,6 +465,12 @@ fn finish(
             out.species = surface.species;
         }
     });
+    match &behind {
+        Behind::Tree(h) => matte::add(h.instance, transmittance),
+        Behind::Ground(..) => matte::add(matte::TERRAIN, transmittance),
+        Behind::Sky if scene.sky.is_some() => matte::add(matte::SKY, transmittance),
+        Behind::Sky => {}
+    }
     if let Behind::Tree(h) = &behind {
         // A model is opaque where it is hit: the canopy is whole, that much of it the model's.
         out.canopy = 1.0;

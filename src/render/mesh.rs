@@ -180,6 +180,7 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
     let (normal, albedo, t, species, leave) =
         if let (Some(h), _) = nearest_drawn(scene, &ray, t_max, key, &Draw::Mesh) {
             let s = tree_surface(scene, &h, dir);
+            super::matte::add(h.instance, 1.0);
             out.canopy = 1.0;
             out.mesh_canopy = 1.0;
             (s.normal, s.albedo, h.hit.t, s.species, s.leave)
@@ -187,10 +188,12 @@ pub fn radiance(scene: &Scene, dir: Vec3, key: u64) -> Radiance {
             let triangle = &g.mesh.triangles[tri as usize];
             let albedo = g.mesh.base_color(triangle, hit.w).truncate();
             let n = g.normal(tri, dir);
+            super::matte::add(super::matte::TERRAIN, 1.0);
             (n, albedo, hit.t, 0.0, g.leave(tri, &hit, n, sun))
         } else {
             out.transmittance = 1.0;
             if let Some(sky) = scene.sky {
+                super::matte::add(super::matte::SKY, 1.0);
                 out.rgb = sky;
                 out.transmittance = 0.0;
             }

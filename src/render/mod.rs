@@ -14,6 +14,7 @@ pub mod integrate;
 pub mod leaves;
 pub mod load;
 pub mod lod;
+pub mod matte;
 pub mod mesh;
 pub mod scene;
 pub mod shading;
@@ -27,12 +28,15 @@ use rayon::prelude::*;
 pub use camera::Camera;
 pub use film::{Aovs, Film};
 pub use lod::Lod;
+pub use matte::MatteNames;
 pub use scene::{Ground, Lighting, Look, Placed, Scene, Shading, Sun};
 pub use shading::Radiance;
 pub use walk::{March, ShadowRays};
 
 #[cfg(test)]
 mod hybrid_tests;
+#[cfg(test)]
+mod matte_tests;
 #[cfg(test)]
 mod mesh_tests;
 #[cfg(test)]
@@ -72,6 +76,8 @@ pub struct RenderSettings {
     /// changes representation once as the camera comes nearer rather than from frame to
     /// frame. Over seeds, a tree is a texture with the band's probability.
     pub lod_seed: u64,
+    /// Record each pixel's coverage by tree, species, terrain and sky (`matte`).
+    pub mattes: bool,
 }
 
 impl Default for RenderSettings {
@@ -84,6 +90,7 @@ impl Default for RenderSettings {
             crop: None,
             seed: 0,
             lod_seed: 0,
+            mattes: false,
         }
     }
 }
@@ -97,6 +104,9 @@ pub fn render(
 ) -> Film {
     let [x0, y0, x1, y1] = settings.crop.unwrap_or([0, 0, camera.width, camera.height]);
     let mut film = Film::new(x0, y0, x1 - x0, y1 - y0, (camera.width, camera.height));
+    if settings.mattes {
+        film.mattes = vec![Mattes::EMPTY; film.rgba.len()];
+    }
     let tiles: Vec<(u32, u32)> = (y0..y1)
         .step_by(TILE as usize)
         .flat_map(|ty| (x0..x1).step_by(TILE as usize).map(move |tx| (tx, ty)))
@@ -131,6 +141,9 @@ pub fn render(
         film.species[i] = p.radiance.species;
         film.samples[i] = p.samples;
         film.shadow_rays[i] = p.shadow_rays;
+        if let Some(m) = p.mattes {
+            film.mattes[i] = *m;
+        }
     }
     film
 }
@@ -149,6 +162,8 @@ struct Pixel {
     /// Work for the whole pixel, all its samples.
     samples: f32,
     shadow_rays: f32,
+    /// With mattes: the pixel's coverage by tree and by species.
+    mattes: Option<Box<Mattes>>,
 }
 
 /// The mean of `spp` samples, jittered within a `strata` x `strata` grid over the pixel.
@@ -169,7 +184,9 @@ fn pixel(
     let (mut rgba, mut first, mut z) = ([0.0f32; 4], None, f32::INFINITY);
     let (mut samples, mut shadow_rays) = (0u64, 0u64);
     let (mut canopy, mut mesh_canopy, mut band_canopy) = (0.0f32, 0.0f32, 0.0f32);
+    let mut coverage = matte::Coverage::default();
     for s in 0..settings.spp {
+        matte::begin(settings.mattes);
         let key = rng::hash3(pixel_key, s as u64, 0);
         let (sx, sy) = ((s % strata) as f64, ((s / strata) % strata) as f64);
         let px = x as f64 + (sx + rng::unit(key)) / strata as f64;
@@ -195,6 +212,9 @@ fn pixel(
             rgba[c] += r.rgb[c];
         }
         rgba[3] += 1.0 - r.transmittance;
+        if settings.mattes {
+            coverage.end_sample(1.0 - r.transmittance);
+        }
         canopy += r.canopy;
         mesh_canopy += r.mesh_canopy;
         band_canopy += r.band_canopy;
@@ -205,6 +225,12 @@ fn pixel(
         }
         first.get_or_insert(r);
     }
+    let mattes = settings.mattes.then(|| {
+        Box::new(Mattes {
+            trees: coverage.ranks(settings.spp, |o| o),
+            species: coverage.ranks(settings.spp, |o| species_of(scene, o)),
+        })
+    });
     let n = settings.spp as f32;
     // A non-finite value would poison every composite downstream; none should arise, but an
     // image must never carry one.
@@ -219,6 +245,31 @@ fn pixel(
         band_canopy: (band_canopy / n).clamp(0.0, 1.0),
         samples: samples as f32,
         shadow_rays: shadow_rays as f32,
+        mattes,
+    }
+}
+
+/// A pixel's most-covering trees and species (`matte`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mattes {
+    pub trees: matte::Ranks,
+    /// Species by index; the terrain and the sky keep their codes.
+    pub species: matte::Ranks,
+}
+
+impl Mattes {
+    pub const EMPTY: Mattes = Mattes {
+        trees: [(0, 0.0); matte::RANKS],
+        species: [(0, 0.0); matte::RANKS],
+    };
+}
+
+/// The species of object `o` (a tree), or the object itself (the terrain, the sky).
+fn species_of(scene: &Scene, o: u32) -> u32 {
+    if o == matte::TERRAIN || o == matte::SKY {
+        o
+    } else {
+        u32::from(scene.instances.get(o).look)
     }
 }
 
@@ -236,4 +287,13 @@ fn the_memory_bound_per_pixel_covers_what_a_render_holds() {
     let held = (film + tiles + exr) as u64;
     println!("{film} + {tiles} + {exr} = {held} bytes a pixel");
     assert!(film::BYTES_PER_PIXEL >= held, "{held}");
+    // Cryptomatte: ranks in the film and in each tile's pixel (a box, with the allocator's
+    // header), 32 float channels in the EXR.
+    let ranks = size_of::<Mattes>();
+    let crypto = ranks + ranks + 16 + 2 * 32 * size_of::<f32>();
+    println!("cryptomatte: {ranks} + {ranks} + 16 + 256 = {crypto} bytes a pixel");
+    assert!(
+        film::CRYPTOMATTE_BYTES_PER_PIXEL >= crypto as u64,
+        "{crypto}"
+    );
 }
