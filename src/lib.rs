@@ -12,6 +12,7 @@ pub mod color;
 pub mod compare;
 #[cfg(feature = "dev-tools")]
 pub mod corpus;
+pub mod export;
 pub mod formats;
 pub mod geom;
 pub mod hex;
