@@ -84,10 +84,13 @@ impl Gltf {
             json!({ "version": "2.0", "generator": generator }),
         );
         root.insert("scene".into(), json!(0));
-        root.insert(
-            "scenes".into(),
-            json!([{ "name": "forest", "nodes": roots }]),
-        );
+        // A scene's node list may not be empty: an empty forest is a scene without one.
+        let scene = if roots.is_empty() {
+            json!({ "name": "forest" })
+        } else {
+            json!({ "name": "forest", "nodes": roots })
+        };
+        root.insert("scenes".into(), json!([scene]));
         let arrays = [
             ("nodes", self.nodes),
             ("meshes", self.meshes),
