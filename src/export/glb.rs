@@ -73,8 +73,9 @@ impl Gltf {
         self.nodes.len() - 1
     }
 
-    /// The binary glTF of everything pushed, with one scene whose roots are `roots`.
-    pub fn into_glb(mut self, generator: &str, roots: &[usize]) -> Vec<u8> {
+    /// The binary glTF of everything pushed, with one scene whose roots are `roots`; `None`
+    /// if it would pass the 4 GiB a GLB's 32-bit lengths can describe.
+    pub fn into_glb(mut self, generator: &str, roots: &[usize]) -> Option<Vec<u8>> {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
@@ -126,16 +127,18 @@ impl Gltf {
             chunks.push((BIN_CHUNK, self.bin));
         }
         let total = 12 + chunks.iter().map(|(_, c)| 8 + c.len()).sum::<usize>();
+        let total_u32 = u32::try_from(total).ok()?;
         let mut out = Vec::with_capacity(total);
         out.extend(GLB_MAGIC.to_le_bytes());
         out.extend(2u32.to_le_bytes());
-        out.extend((total as u32).to_le_bytes());
+        out.extend(total_u32.to_le_bytes());
         for (kind, data) in chunks {
+            // Each chunk is shorter than the total, which fits.
             out.extend((data.len() as u32).to_le_bytes());
             out.extend(kind.to_le_bytes());
             out.extend(data);
         }
-        out
+        Some(out)
     }
 }
 
@@ -168,7 +171,7 @@ mod tests {
         let mut g = Gltf::default();
         g.view(&[1, 2, 3], None, None);
         g.floats(&[1.0, 2.0, 3.0], 3);
-        let glb = g.into_glb("test", &[]);
+        let glb = g.into_glb("test", &[]).unwrap();
         let u32_at = |at: usize| u32::from_le_bytes(glb[at..at + 4].try_into().unwrap());
         assert_eq!(&glb[..4], b"glTF");
         assert_eq!(u32_at(4), 2);

@@ -51,6 +51,12 @@ pub enum ExportError {
     /// A glTF model cannot be copied (the error names the file).
     #[error(transparent)]
     Model(#[from] ImportError),
+    /// The glTF would be larger than a GLB can be.
+    #[error(
+        "the glTF of {0} trees would pass the 4 GiB a binary glTF can hold; export part of the \
+         forest (texel place --region) or fewer trees"
+    )]
+    TooLarge(usize),
     /// The files are readable but do not fit together.
     #[error("{}: {message}", file.display())]
     Mismatch { file: PathBuf, message: String },

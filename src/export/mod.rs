@@ -169,7 +169,8 @@ pub fn glb(inputs: &mut Inputs, warnings: &mut Vec<String>) -> Result<Vec<u8>, E
         warnings.extend(model.warnings().iter().cloned());
     }
     let generator = concat!("texel-forest ", env!("CARGO_PKG_VERSION"));
-    Ok(out.into_glb(generator, &roots))
+    out.into_glb(generator, &roots)
+        .ok_or_else(|| ExportError::TooLarge(inputs.forest.instances.len()))
 }
 
 #[cfg(test)]
