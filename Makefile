@@ -14,7 +14,7 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
 .DELETE_ON_ERROR:
 
 FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
-          $(OUT)/forest.exr
+          $(OUT)/forest.exr $(OUT)/forest.glb
 
 demo: $(TEXELS) $(VIEWS) $(FOREST)
 	@echo "demo: outputs under $(OUT)/ (trees/: texels, summaries, pictures; forest.*: the placed forest and its map)"
@@ -110,4 +110,9 @@ $(OUT)/forest-map.png: $(OUT)/forest.instances
 $(OUT)/forest.exr: $(OUT)/forest.instances $(TEXEL)
 	$(TEXEL) render $< -o $@ --preview $(OUT)/forest.png --width 1280 --height 720 --depfile $@.d
 
--include $(TEXELS:%=%.d) $(OUT)/forest.instances.d $(OUT)/forest.exr.d
+# The forest for other tools: the tree models instanced per tree over the terrain (glTF), and
+# a table of the trees.
+$(OUT)/forest.glb: $(OUT)/forest.instances $(TEXEL)
+	$(TEXEL) export $< -o $@ --with-terrain --csv $(OUT)/forest-trees.csv --depfile $@.d
+
+-include $(TEXELS:%=%.d) $(OUT)/forest.instances.d $(OUT)/forest.exr.d $(OUT)/forest.glb.d

@@ -326,6 +326,8 @@ pub enum Command {
     Compare(CompareArgs),
     /// Assemble a frame sequence's previews (PNG) into one animated PNG.
     Animate(AnimateArgs),
+    /// Export a forest for other tools: a glTF of instanced tree models, tables of the trees.
+    Export(ExportArgs),
 }
 
 #[derive(Args, Debug)]
@@ -714,4 +716,30 @@ pub struct InspectArgs {
     /// Where to write the picture (PNG).
     #[arg(short, long, value_name = "FILE.png")]
     pub output: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+#[command(group = clap::ArgGroup::new("outputs").required(true).multiple(true)
+    .args(["output", "csv", "json"]))]
+pub struct ExportArgs {
+    /// The forest (.instances); its texels, their models and its terrain are found relative
+    /// to it.
+    pub instances: PathBuf,
+    /// A glTF 2.0 binary placing each species' source model once per tree
+    /// (EXT_mesh_gpu_instancing), the models copied in whole.
+    #[arg(short, long, value_name = "FILE.glb")]
+    pub output: Option<PathBuf>,
+    /// Also put the terrain the forest was placed on into the glTF.
+    #[arg(long, requires = "output")]
+    pub with_terrain: bool,
+    /// One line per tree: x,y,z (m), rotation_deg (about +Y), scale, height_m, species,
+    /// variation.
+    #[arg(long, value_name = "FILE.csv")]
+    pub csv: Option<PathBuf>,
+    /// The same table as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub json: Option<PathBuf>,
+    /// Also write a Make rule listing every file the export read.
+    #[arg(long, value_name = "FILE")]
+    pub depfile: Option<PathBuf>,
 }

@@ -13,6 +13,7 @@ pub mod compare;
 #[cfg(feature = "dev-tools")]
 pub mod corpus;
 pub mod cryptomatte;
+pub mod export;
 pub mod formats;
 pub mod geom;
 pub mod hex;

@@ -3,6 +3,7 @@
 mod animate;
 mod bake;
 mod compare;
+mod export;
 mod inspect;
 mod place;
 mod render;
@@ -27,6 +28,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Inspect(args) => inspect::run(&args, &limits),
         Command::Compare(args) => compare::run(&args, &limits),
         Command::Animate(args) => animate::run(&args, &limits, cli.quiet),
+        Command::Export(args) => export::run(&args, &limits, cli.quiet),
     }
 }
 

@@ -69,7 +69,7 @@ fn from_input(e: InputError) -> ImportError {
 /// A glTF file, read no further than its first bytes when they say it is not glTF (a binary
 /// `glTF` header, or JSON's `{` after any byte-order mark and white space), and no further than
 /// its declared length when it is a `.glb`.
-fn read_gltf(path: &Path) -> Result<Vec<u8>, ImportError> {
+pub(super) fn read_gltf(path: &Path) -> Result<Vec<u8>, ImportError> {
     let bytes = input::read_framed(path, 12, |head| {
         if head.starts_with(b"glTF") && head.len() >= 12 {
             let length = u32::from_le_bytes([head[8], head[9], head[10], head[11]]);
@@ -291,7 +291,7 @@ impl Document {
 }
 
 /// Splits a binary glTF into its JSON chunk and optional BIN chunk.
-fn split_glb<'a>(
+pub(super) fn split_glb<'a>(
     path: &Path,
     bytes: &'a [u8],
 ) -> Result<(&'a [u8], Option<&'a [u8]>), ImportError> {

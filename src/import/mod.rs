@@ -11,6 +11,7 @@ mod accessor;
 mod animation;
 mod document;
 mod image;
+mod raw;
 mod scene;
 #[cfg(test)]
 mod tests;
@@ -25,6 +26,7 @@ use crate::provenance::Source;
 
 pub use self::animation::{CameraAnimation, load_camera_animation};
 pub use self::image::{Texture, WrapMode};
+pub use self::raw::{MeshNode, RawGltf};
 
 /// A triangle soup with per-vertex attributes, ready for scan conversion.
 #[derive(Clone, Debug, Default)]

@@ -82,6 +82,19 @@ impl TreeTransform {
         (world, error)
     }
 
+    /// [`TreeTransform::point_to_world`] (without its error bound) as a matrix: the turn about
+    /// +Y, the scale and the position, for files that place the model as the renderer does
+    /// (`texel export`).
+    pub fn world_from_model(&self) -> glam::DMat4 {
+        let axis = |a: Vec3| (self.dir_to_world(a) * self.scale).as_dvec3().extend(0.0);
+        glam::DMat4::from_cols(
+            axis(Vec3::X),
+            axis(Vec3::Y),
+            axis(Vec3::Z),
+            self.position.as_dvec3().extend(1.0),
+        )
+    }
+
     /// `ray` in the instance's model space, with the same parameter `t`.
     #[inline]
     pub fn local_ray(&self, ray: &Ray) -> Ray {

@@ -118,16 +118,7 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
     } else {
         None
     };
-    let placed = forest
-        .instances
-        .iter()
-        .map(|p| Placed {
-            look: p.species as u16,
-            position: DVec3::from(p.position),
-            rotation: p.rotation,
-            scale: p.scale,
-        })
-        .collect();
+    let placed = forest.instances.iter().map(Placed::of).collect();
     Ok(LoadedScene {
         forest,
         texels: textures.texels,

@@ -34,6 +34,31 @@ pub struct Placed {
     pub scale: f32,
 }
 
+impl Placed {
+    /// Tree `p` of a forest as the renderer draws it (its species is its look).
+    pub fn of(p: &crate::formats::instances::Instance) -> Placed {
+        Placed {
+            look: p.species as u16,
+            position: DVec3::from(p.position),
+            rotation: p.rotation,
+            scale: p.scale,
+        }
+    }
+
+    /// The tree in the frame of a camera at `origin`, an instance of model `model`.
+    pub fn transform(&self, model: u32, origin: DVec3) -> TreeTransform {
+        let (sin, cos) = self.rotation.sin_cos();
+        TreeTransform {
+            look: self.look,
+            model,
+            position: (self.position - origin).as_vec3(),
+            cos,
+            sin,
+            scale: self.scale,
+        }
+    }
+}
+
 /// The sun: a direction and an irradiance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sun {
@@ -209,17 +234,7 @@ impl Scene {
             .collect();
         let instances: Vec<TreeTransform> = placed
             .iter()
-            .map(|p| {
-                let (sin, cos) = p.rotation.sin_cos();
-                TreeTransform {
-                    look: p.look,
-                    model: looks[p.look as usize].texel as u32,
-                    position: (p.position - origin).as_vec3(),
-                    cos,
-                    sin,
-                    scale: p.scale,
-                }
-            })
+            .map(|p| p.transform(looks[p.look as usize].texel as u32, origin))
             .collect();
         let occupancy = texels
             .iter()
