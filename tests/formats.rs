@@ -155,7 +155,12 @@ fn valid_forest_file() -> Vec<u8> {
             variation: i as u16,
         })
         .collect();
-    instances::encode(&Forest { info, instances }).unwrap()
+    instances::encode(&Forest {
+        info,
+        instances,
+        heightmap: None,
+    })
+    .unwrap()
 }
 
 proptest! {

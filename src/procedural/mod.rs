@@ -80,7 +80,11 @@ pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
     let origin = [-1000.0, 120.0, -2000.0];
     let instances = golden_trees(origin);
     let info = golden_forest_info(origin, vec![golden_beech(), golden_pine()]);
-    Ok(instances::encode(&instances::Forest { info, instances })?)
+    Ok(instances::encode(&instances::Forest {
+        info,
+        instances,
+        heightmap: None,
+    })?)
 }
 
 /// The golden file's deciduous species: a leafless texture, and seasons with several
