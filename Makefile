@@ -66,7 +66,8 @@ fixtures:
 # zstandard module) against the golden files and the invalid corpus.
 formats-check:
 	python3 formats/reference/read_formats.py --check-golden \
-	    fixtures/formats/conifer-8.texel fixtures/formats/forest-12.instances
+	    fixtures/formats/conifer-8.texel fixtures/formats/forest-12.instances \
+	    fixtures/formats/forest-12-heightmap.instances
 	python3 formats/reference/read_formats.py --expect-invalid fixtures/formats/invalid/* >/dev/null
 
 clean:

@@ -191,6 +191,23 @@ fn instances_truncations_are_refused() {
     }
 }
 
+/// Golden 1.1 file: `fixtures/formats/forest-12-heightmap.instances`, the golden forest on a
+/// heightmap, with the conversion after `count`.
+#[test]
+fn golden_heightmap_instances_decode_and_are_reproduced() {
+    let golden = std::fs::read(common::fixture("formats/forest-12-heightmap.instances"))
+        .expect("run `make fixtures`");
+    assert!(
+        texel_forest::procedural::golden_heightmap_instances().unwrap() == golden,
+        "the format changed: regenerate with `make fixtures` if intended"
+    );
+    let f = instances::decode(&golden).unwrap();
+    let h = f.heightmap.expect("a 1.1 file records the conversion");
+    assert_eq!(h.size, Some([2000.0, 2000.0]));
+    assert_eq!(h.height_range, Some([-12.5, 480.5]));
+    assert_eq!(f.instances.len(), 12);
+}
+
 /// Golden file: `fixtures/formats/forest-12.instances`, written by hand in
 /// `procedural::golden_instances`; `formats/instances.md` pins its decoded values.
 #[test]
