@@ -16,7 +16,10 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
 FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
           $(OUT)/forest.exr
 
-demo: $(TEXELS) $(VIEWS) $(FOREST)
+# The same trees on a heightmap terrain (a 16-bit grey PNG, as terrain tools export).
+HEIGHTMAP := $(OUT)/heightmap-forest.instances $(OUT)/heightmap-forest.exr
+
+demo: $(TEXELS) $(VIEWS) $(FOREST) $(HEIGHTMAP)
 	@echo "demo: outputs under $(OUT)/ (trees/: texels, summaries, pictures; forest.*: the placed forest and its map)"
 
 # Release speed, with overflow checks and debug assertions on (the `ci` profile).
@@ -111,4 +114,14 @@ $(OUT)/forest-map.png: $(OUT)/forest.instances
 $(OUT)/forest.exr: $(OUT)/forest.instances $(TEXEL)
 	$(TEXEL) render $< -o $@ --preview $(OUT)/forest.png --width 1280 --height 720 --depfile $@.d
 
--include $(TEXELS:%=%.d) $(OUT)/forest.instances.d $(OUT)/forest.exr.d
+# The heightmap says neither its extent nor its heights: the flags do, and the forest records
+# them, so the render needs none.
+$(OUT)/heightmap-forest.instances: fixtures/terrain/valley.png $(OUT)/species.json $(TEXELS) $(TEXEL)
+	$(TEXEL) place $< --terrain-size 1000,1000 --height-range 100,600 \
+	    --species $(OUT)/species.json -o $@ --seed 1 --depfile $@.d
+$(OUT)/heightmap-forest.exr: $(OUT)/heightmap-forest.instances $(TEXEL)
+	$(TEXEL) render $< -o $@ --preview $(OUT)/heightmap-forest.png --width 640 --height 360 \
+	    --depfile $@.d
+
+-include $(TEXELS:%=%.d) $(OUT)/forest.instances.d $(OUT)/forest.exr.d \
+    $(OUT)/heightmap-forest.instances.d $(OUT)/heightmap-forest.exr.d
