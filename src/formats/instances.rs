@@ -8,7 +8,6 @@ use super::container::{self, ContainerError, header_config};
 use crate::limits::{LimitError, Limits};
 use crate::provenance::SourceFile;
 use crate::species::{Seasons, Traits};
-use crate::terrain::HeightmapOptions;
 
 pub const MAGIC: &[u8; 8] = b"\x89TXINST\n";
 pub const MAJOR: u16 = 1;
@@ -70,6 +69,43 @@ impl SpeciesRecord {
     /// Radius (m) of the disc a tree of this species at `scale` keeps free.
     pub fn radius(&self, scale: f64) -> f64 {
         self.spacing * scale * self.model_height / (0.5 * (self.height_min + self.height_max))
+    }
+}
+
+/// How to turn a heightmap's samples into metres: what `--terrain-size` and `--height-range`
+/// say, recorded in a forest placed on a heightmap so a render rebuilds the same mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq, bincode::Encode, bincode::Decode)]
+pub struct HeightmapOptions {
+    /// Full extent east-west and north-south (m), first to last sample.
+    pub size: Option<[f64; 2]>,
+    /// Heights (m) of integer sample 0 and of the type's largest value.
+    pub height_range: Option<[f64; 2]>,
+}
+
+impl HeightmapOptions {
+    pub fn is_empty(&self) -> bool {
+        self.size.is_none() && self.height_range.is_none()
+    }
+
+    /// Refuses sizes and ranges no terrain can have (`field` names them as the user gave them).
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        if let Some([x, z]) = self.size
+            && !(x.is_finite() && z.is_finite() && x > 0.0 && z > 0.0)
+        {
+            return Err((
+                "--terrain-size".into(),
+                format!("{x},{z} is not two positive finite extents"),
+            ));
+        }
+        if let Some([lo, hi]) = self.height_range
+            && !(lo.is_finite() && hi.is_finite() && lo < hi)
+        {
+            return Err((
+                "--height-range".into(),
+                format!("{lo},{hi} needs finite LO < HI"),
+            ));
+        }
+        Ok(())
     }
 }
 
