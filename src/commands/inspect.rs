@@ -70,7 +70,7 @@ pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
         .transpose()?;
     let head = input::read_framed(file, 16, |_| None)?;
     match Kind::of(&head, file.extension())
-        .with_context(|| format!("{}: not a .texel, .instances, glTF terrain or heightmap file (its first bytes match none of them)", file.display()))?
+        .with_context(|| format!("{}: not a .texel, .instances or glTF terrain file, nor a heightmap image (its first bytes match none of them)", file.display()))?
     {
         Kind::Texel => run_texel(args, limits, outputs, picture),
         Kind::Instances => run_instances(args, limits, outputs, picture),

@@ -131,7 +131,7 @@ pub(crate) fn exr(file: &Path, bytes: &[u8], limits: &Limits) -> Result<Raster, 
 pub(crate) fn r16(file: &Path, bytes: &[u8], limits: &Limits) -> Result<Raster, HeightmapError> {
     let n = bytes.len() as u64 / 2;
     let side = n.isqrt();
-    if bytes.len() % 2 != 0 || side * side != n {
+    if !bytes.len().is_multiple_of(2) || side * side != n {
         return Err(error(
             file,
             "",
