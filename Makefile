@@ -14,9 +14,12 @@ VIEWS := $(foreach t,$(TREES),$(OUT)/trees/$(t).txt $(OUT)/trees/$(t).json \
 .DELETE_ON_ERROR:
 
 FOREST := $(OUT)/forest.instances $(OUT)/forest.txt $(OUT)/forest.json $(OUT)/forest-map.png \
-          $(OUT)/forest.exr $(OUT)/forest.glb
+          $(OUT)/forest.exr $(OUT)/forest.glb $(OUT)/forest-mattes.exr
 
-demo: $(TEXELS) $(VIEWS) $(FOREST)
+# The same trees on a heightmap terrain (a 16-bit grey PNG, as terrain tools export).
+HEIGHTMAP := $(OUT)/heightmap-forest.instances $(OUT)/heightmap-forest.exr
+
+demo: $(TEXELS) $(VIEWS) $(FOREST) $(HEIGHTMAP)
 	@echo "demo: outputs under $(OUT)/ (trees/: texels, summaries, pictures; forest.*: the placed forest and its map)"
 
 # Release speed, with overflow checks and debug assertions on (the `ci` profile).
@@ -66,7 +69,8 @@ fixtures:
 # zstandard module) against the golden files and the invalid corpus.
 formats-check:
 	python3 formats/reference/read_formats.py --check-golden \
-	    fixtures/formats/conifer-8.texel fixtures/formats/forest-12.instances
+	    fixtures/formats/conifer-8.texel fixtures/formats/forest-12.instances \
+	    fixtures/formats/forest-12-heightmap.instances
 	python3 formats/reference/read_formats.py --expect-invalid fixtures/formats/invalid/* >/dev/null
 
 clean:
@@ -115,4 +119,18 @@ $(OUT)/forest.exr: $(OUT)/forest.instances $(TEXEL)
 $(OUT)/forest.glb: $(OUT)/forest.instances $(TEXEL)
 	$(TEXEL) export $< -o $@ --with-terrain --csv $(OUT)/forest-trees.csv --depfile $@.d
 
--include $(TEXELS:%=%.d) $(OUT)/forest.instances.d $(OUT)/forest.exr.d $(OUT)/forest.glb.d
+# The same view with ID mattes for compositing: Cryptomatte by species and by tree.
+$(OUT)/forest-mattes.exr: $(OUT)/forest.instances $(TEXEL)
+	$(TEXEL) render $< -o $@ --width 640 --height 360 --aov canopy,cryptomatte --depfile $@.d
+
+# The heightmap says neither its extent nor its heights: the flags do, and the forest records
+# them, so the render needs none.
+$(OUT)/heightmap-forest.instances: fixtures/terrain/valley.png $(OUT)/species.json $(TEXELS) $(TEXEL)
+	$(TEXEL) place $< --terrain-size 1000,1000 --height-range 100,600 \
+	    --species $(OUT)/species.json -o $@ --seed 1 --depfile $@.d
+$(OUT)/heightmap-forest.exr: $(OUT)/heightmap-forest.instances $(TEXEL)
+	$(TEXEL) render $< -o $@ --preview $(OUT)/heightmap-forest.png --width 640 --height 360 \
+	    --depfile $@.d
+
+-include $(TEXELS:%=%.d) $(OUT)/forest.instances.d $(OUT)/forest.exr.d $(OUT)/forest.glb.d \
+    $(OUT)/forest-mattes.exr.d $(OUT)/heightmap-forest.instances.d $(OUT)/heightmap-forest.exr.d

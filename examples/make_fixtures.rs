@@ -20,6 +20,10 @@ fn main() -> anyhow::Result<()> {
     let instances = texel_forest::procedural::golden_instances()?;
     texel_forest::output::write_atomic(&golden, &instances)?;
     println!("{} ({} bytes)", golden.display(), instances.len());
+    let golden = dir.join("formats/forest-12-heightmap.instances");
+    let bytes = texel_forest::procedural::golden_heightmap_instances()?;
+    texel_forest::output::write_atomic(&golden, &bytes)?;
+    println!("{} ({} bytes)", golden.display(), bytes.len());
     // The invalid corpus is rewritten whole, so a file dropped from the generator goes too.
     let invalid = dir.join("formats/invalid");
     if invalid.exists() {

@@ -117,6 +117,26 @@ pub fn region(s: &str) -> Result<[f64; 4], String> {
     }
 }
 
+/// `X,Z`: a heightmap's extent, two positive metres.
+pub fn terrain_size(s: &str) -> Result<[f64; 2], String> {
+    let r = numbers::<2>(s, "two extents X,Z (metres)")?;
+    if r.iter().all(|&v| v > 0.0) {
+        Ok(r)
+    } else {
+        Err("needs two positive extents".into())
+    }
+}
+
+/// `LO,HI`: the heights (m) of a heightmap's lowest and highest integer sample, LO < HI.
+pub fn height_range(s: &str) -> Result<[f64; 2], String> {
+    let r = numbers::<2>(s, "two heights LO,HI (metres)")?;
+    if r[0] < r[1] {
+        Ok(r)
+    } else {
+        Err("needs LO < HI".into())
+    }
+}
+
 /// `X0,Y0,X1,Y1` in pixels, whole and non-negative, a non-empty rectangle.
 pub fn crop(s: &str) -> Result<[u32; 4], String> {
     let whole = |p: &str| {
@@ -419,9 +439,13 @@ pub struct RenderArgs {
     /// The image to write: OpenEXR, linear, scene-referred, premultiplied RGBA + Z.
     #[arg(short, long, value_name = "FRAME.exr")]
     pub output: PathBuf,
-    /// The terrain (default: the one the forest was placed on).
+    /// The terrain (default: the one the forest was placed on, a heightmap converted as
+    /// recorded): a glTF or a heightmap image.
     #[arg(long, value_name = "FILE")]
     pub terrain: Option<PathBuf>,
+    /// With --terrain: how a heightmap becomes metres.
+    #[command(flatten)]
+    pub heightmap: HeightmapArgs,
     /// A camera node of the terrain glTF (or of --camera-file), by name.
     #[arg(long, value_name = "NAME", conflicts_with_all = ["eye", "target"])]
     pub camera: Option<String>,
@@ -632,10 +656,35 @@ pub struct BakeArgs {
     pub depfile: Option<PathBuf>,
 }
 
+/// How a heightmap terrain becomes metres (formats/heightmap.md).
+#[derive(Args, Debug, Default)]
+pub struct HeightmapArgs {
+    /// Heightmap terrain: its full extent east-west and north-south (metres), first sample
+    /// to last; needed unless a GeoTIFF's tags say it.
+    #[arg(long, value_name = "X,Z", value_parser = terrain_size)]
+    pub terrain_size: Option<[f64; 2]>,
+    /// Heightmap terrain of integer samples: the heights (metres) of sample 0 and of the
+    /// largest value (255, 65535). Float samples are metres as stored.
+    #[arg(long, value_name = "LO,HI", allow_hyphen_values = true, value_parser = height_range)]
+    pub height_range: Option<[f64; 2]>,
+}
+
+impl HeightmapArgs {
+    pub fn options(&self) -> texel_forest::terrain::HeightmapOptions {
+        texel_forest::terrain::HeightmapOptions {
+            size: self.terrain_size,
+            height_range: self.height_range,
+        }
+    }
+}
+
 #[derive(Args, Debug)]
 pub struct PlaceArgs {
-    /// The terrain: a triangulated glTF surface, metres, +Y up.
+    /// The terrain: a triangulated glTF surface (metres, +Y up), or a heightmap image (PNG,
+    /// EXR, TIFF/GeoTIFF, .r16; see --terrain-size, --height-range).
     pub terrain: PathBuf,
+    #[command(flatten)]
+    pub heightmap: HeightmapArgs,
     /// The species description (JSON, see formats/species.md); texel paths in it are
     /// relative to it.
     #[arg(long, value_name = "FILE")]
@@ -681,8 +730,12 @@ impl AxisArg {
 
 #[derive(Args, Debug)]
 pub struct InspectArgs {
-    /// The file to describe: a .texel, a .instances, or a terrain (.glb or .gltf).
+    /// The file to describe: a .texel, a .instances, or a terrain (.glb, .gltf or a heightmap
+    /// image).
     pub file: PathBuf,
+    /// Terrain: how a heightmap becomes metres.
+    #[command(flatten)]
+    pub heightmap: HeightmapArgs,
     /// Print the summary as JSON instead of text.
     #[arg(long)]
     pub json: bool,

@@ -155,7 +155,12 @@ fn valid_forest_file() -> Vec<u8> {
             variation: i as u16,
         })
         .collect();
-    instances::encode(&Forest { info, instances }).unwrap()
+    instances::encode(&Forest {
+        info,
+        instances,
+        heightmap: None,
+    })
+    .unwrap()
 }
 
 proptest! {
@@ -184,6 +189,23 @@ fn instances_truncations_are_refused() {
     for n in 0..bytes.len() {
         assert!(instances::decode(&bytes[..n]).is_err(), "{n}");
     }
+}
+
+/// Golden 1.1 file: `fixtures/formats/forest-12-heightmap.instances`, the golden forest on a
+/// heightmap, with the conversion after `count`.
+#[test]
+fn golden_heightmap_instances_decode_and_are_reproduced() {
+    let golden = std::fs::read(common::fixture("formats/forest-12-heightmap.instances"))
+        .expect("run `make fixtures`");
+    assert!(
+        texel_forest::procedural::golden_heightmap_instances().unwrap() == golden,
+        "the format changed: regenerate with `make fixtures` if intended"
+    );
+    let f = instances::decode(&golden).unwrap();
+    let h = f.heightmap.expect("a 1.1 file records the conversion");
+    assert_eq!(h.size, Some([2000.0, 2000.0]));
+    assert_eq!(h.height_range, Some([-12.5, 480.5]));
+    assert_eq!(f.instances.len(), 12);
 }
 
 /// Golden file: `fixtures/formats/forest-12.instances`, written by hand in

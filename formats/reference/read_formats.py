@@ -11,7 +11,7 @@ class Bad(Exception):
     pass
 
 MAGIC = {b"\x89TEXEL\r\n": "texel", b"\x89TXINST\n": "instances"}
-MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 2, "instances": 0}
+MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 2, "instances": 1}
 CELL_LIMIT, TREE_LIMIT = 2**25, 2**24           # the reader's allocation limits (texel's defaults)
 
 def f32(x):  # round a Python float to binary32
@@ -268,9 +268,16 @@ def read_instances_header(c, minor, R):
             if any(not 1 <= k["day"] <= 366 for k in keys): raise Bad(f"6: species {s['name']!r}: {series} day outside 1..366")
             if any(not a["day"] < b["day"] for a, b in zip(keys, keys[1:])): raise Bad(f"6: species {s['name']!r}: {series} days not increasing")
             if any(not 0 <= v <= 1 for k in keys for v in vals(k)): raise Bad(f"6: species {s['name']!r}: {series} value outside [0, 1]")
+    if minor >= 1:  # 1.1: the heightmap conversion after count
+        h["heightmap"] = {"size": c.option(lambda: c.f64s(2)), "height_range": c.option(lambda: c.f64s(2))}
     if not h["terrain"]: raise Bad("7: no terrain source")
     if h["count"] > 113_025_455: raise Bad(f"8: count {h['count']} above 113,025,455")
     if 19 * h["count"] != R: raise Bad(f"8: 19 x count = {19 * h['count']}, R = {R}")
+    hm = h.get("heightmap")
+    if hm and hm["size"] is not None and not all(math.isfinite(v) and v > 0 for v in hm["size"]):
+        raise Bad(f"10: heightmap size {hm['size']} not two positive finite extents")
+    if hm and hm["height_range"] is not None and not (all(map(math.isfinite, hm["height_range"])) and hm["height_range"][0] < hm["height_range"][1]):
+        raise Bad(f"10: heightmap height_range {hm['height_range']} needs finite LO < HI")
     if h["count"] > TREE_LIMIT: raise Bad(f"{h['count']} trees, more than this reader's limit of {TREE_LIMIT}")
     return h
 
@@ -298,6 +305,7 @@ def instances_summary(h, limit=20):
     o, t = h["origin"], h["trees"]
     print(f"  generator {h['generator']!r}; seed {h['seed']}; region {h['region']}; raster_cell {h['raster_cell']}; max_count {h['max_count']}, truncated {h['truncated']}")
     print(f"  terrain {[s['path'] for s in h['terrain']]}; species_file {h['species_file']['path']}; origin {o}")
+    if "heightmap" in h: print(f"  heightmap size {h['heightmap']['size']}, height_range {h['heightmap']['height_range']}")
     for i, s in enumerate(h["species"]):
         print(f"  species {i} {s['name']!r}: texel {s['texel']}, leafless {s['leafless_texel']}, model_height {s['model_height']}, spacing {s['spacing']}, "
               f"height {s['height_min']}..{s['height_max']}, traits {s['traits']}, {len(s['foliage'])} foliage / {len(s['leaf_fraction'])} leaf keys")
@@ -350,6 +358,11 @@ def check_golden(h):
                         10: (-2100000000, 5, 0, 0, 200, 32768, 6)}.items():
             eq(f"tree {i}", tuple(t[k][i] for k in ("x", "z", "y", "species", "rotation", "scale", "variation")), want)
         eq("tree 10 x delta", t["dx"][10], 94_967_296)
+    elif name == "forest-12-heightmap.instances":
+        eq("version", h["version"], (1, 1))
+        eq("terrain", [s["path"] for s in h["terrain"]], ["terrain/valley.png"])
+        eq("heightmap", h["heightmap"], {"size": [2000.0, 2000.0], "height_range": [-12.5, 480.5]})
+        eq("count", h["count"], 12); eq("tree 10 x delta", h["trees"]["dx"][10], 94_967_296)
     else:
         bad.append("no golden values for this file name")
     return bad

@@ -70,7 +70,7 @@ pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
         .transpose()?;
     let head = input::read_framed(file, 16, |_| None)?;
     match Kind::of(&head, file.extension())
-        .with_context(|| format!("{}: not a .texel, .instances or glTF terrain file (its first bytes match none of them)", file.display()))?
+        .with_context(|| format!("{}: not a .texel, .instances or glTF terrain file, nor a heightmap image (its first bytes match none of them)", file.display()))?
     {
         Kind::Texel => run_texel(args, limits, outputs, picture),
         Kind::Instances => run_instances(args, limits, outputs, picture),
@@ -149,6 +149,7 @@ fn run_instances(
     let dir = file.parent().unwrap_or(Path::new(""));
     let recorded = &forest.info.terrain[0];
     let path = dir.join(&recorded.path);
+    let options = forest.heightmap.unwrap_or_default();
     let terrain = match provenance::check(&path, &recorded.sha256, "placement", MAX_GLTF) {
         Check::Unreadable(e) => {
             super::warn(&format!("{}: {e}; map without relief", file.display()));
@@ -156,9 +157,9 @@ fn run_instances(
         }
         Check::Changed(e) => {
             super::warn(&format!("{}: terrain {e}", file.display()));
-            Some(Terrain::load(&path, limits)?)
+            Some(Terrain::load_with(&path, &options, limits)?)
         }
-        Check::Same => Some(Terrain::load(&path, limits)?),
+        Check::Same => Some(Terrain::load_with(&path, &options, limits)?),
     };
     write_png(
         outputs,
@@ -176,7 +177,7 @@ fn run_terrain(
     let file = &args.file;
     let picture = map_output(args, picture, "a terrain")?;
     let species = args.species.as_deref().map(SpeciesFile::load).transpose()?;
-    let terrain = Terrain::load(file, limits)?;
+    let terrain = Terrain::load_with(file, &args.heightmap.options(), limits)?;
     for w in &terrain.model.warnings {
         super::warn(w);
     }

@@ -24,7 +24,13 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
         limits.check_trees(m, "--max-count")?;
     }
     let out_dir = super::directory_of(&args.output);
-    let inputs = place::inputs::load(&args.terrain, &args.species, &out_dir, limits)?;
+    let inputs = place::inputs::load(
+        &args.terrain,
+        &args.heightmap.options(),
+        &args.species,
+        &out_dir,
+        limits,
+    )?;
     for w in &inputs.terrain.model.warnings {
         super::warn(w);
     }

@@ -37,6 +37,14 @@ struct Shot {
 
 pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> {
     let start = Instant::now();
+    // The recorded terrain is converted as the forest recorded it; the flags are for --terrain.
+    if args.terrain.is_none() && !args.heightmap.options().is_empty() {
+        anyhow::bail!(
+            "--terrain-size and --height-range convert the heightmap --terrain names; {} \
+             records how its own terrain was converted",
+            args.instances.display()
+        );
+    }
     let path = args
         .camera_path
         .as_ref()
@@ -52,6 +60,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     let loaded = load::load(&SceneRequest {
         forest: &args.instances,
         terrain: args.terrain.as_deref(),
+        heightmap: args.heightmap.options(),
         day: args.day,
         meshes: args.method != MethodArg::Texel,
         limits: *limits,

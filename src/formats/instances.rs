@@ -1,4 +1,6 @@
 //! `.instances` v1: a placed forest (see `formats/instances.md`, which this module mirrors).
+//! Version 1.1 adds one header field after `count`, the heightmap conversion of a terrain that
+//! was an image; a forest on a glTF terrain is still written as 1.0, byte for byte as before.
 
 use bincode::{Decode, Encode};
 
@@ -9,7 +11,10 @@ use crate::species::{Seasons, Traits};
 
 pub const MAGIC: &[u8; 8] = b"\x89TXINST\n";
 pub const MAJOR: u16 = 1;
-pub const MINOR: u16 = 0;
+/// The newest minor version this module reads and writes.
+pub const MINOR: u16 = 1;
+/// The minor version that added `heightmap` after `count`.
+pub const HEIGHTMAP_MINOR: u16 = 1;
 
 /// Position quantum: one centimetre.
 pub const QUANTUM: f64 = 0.01;
@@ -67,6 +72,43 @@ impl SpeciesRecord {
     }
 }
 
+/// How to turn a heightmap's samples into metres: what `--terrain-size` and `--height-range`
+/// say, recorded in a forest placed on a heightmap so a render rebuilds the same mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq, bincode::Encode, bincode::Decode)]
+pub struct HeightmapOptions {
+    /// Full extent east-west and north-south (m), first to last sample.
+    pub size: Option<[f64; 2]>,
+    /// Heights (m) of integer sample 0 and of the type's largest value.
+    pub height_range: Option<[f64; 2]>,
+}
+
+impl HeightmapOptions {
+    pub fn is_empty(&self) -> bool {
+        self.size.is_none() && self.height_range.is_none()
+    }
+
+    /// Refuses sizes and ranges no terrain can have (`field` names them as the user gave them).
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        if let Some([x, z]) = self.size
+            && !(x.is_finite() && z.is_finite() && x > 0.0 && z > 0.0)
+        {
+            return Err((
+                "--terrain-size".into(),
+                format!("{x},{z} is not two positive finite extents"),
+            ));
+        }
+        if let Some([lo, hi]) = self.height_range
+            && !(lo.is_finite() && hi.is_finite() && lo < hi)
+        {
+            return Err((
+                "--height-range".into(),
+                format!("{lo},{hi} needs finite LO < HI"),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Everything about a forest but its trees.
 #[derive(Clone, Debug, PartialEq, Encode, Decode)]
 pub struct ForestInfo {
@@ -96,6 +138,20 @@ pub struct ForestInfo {
 pub struct Forest {
     pub info: ForestInfo,
     pub instances: Vec<Instance>,
+    /// How the terrain image was turned into a mesh, when the terrain is a heightmap (the
+    /// 1.1 header field after `count`); `None` for a glTF terrain (a 1.0 file).
+    pub heightmap: Option<HeightmapOptions>,
+}
+
+impl Forest {
+    /// The minor version this forest is written as: 1.0 unless it needs a later field.
+    pub fn minor(&self) -> u16 {
+        if self.heightmap.is_some() {
+            HEIGHTMAP_MINOR
+        } else {
+            0
+        }
+    }
 }
 
 #[derive(Encode, Decode)]
@@ -171,6 +227,9 @@ fn quantise(v: f64, origin: f64) -> Option<i32> {
 fn check_writable(forest: &Forest) -> Result<(), InstancesError> {
     let unwritable = |m: String| Err(InstancesError::Unwritable(m));
     validate(&forest.info).or_else(|e| unwritable(e.to_string()))?;
+    if let Some(h) = &forest.heightmap {
+        validate_heightmap(h).or_else(|e| unwritable(e.to_string()))?;
+    }
     if forest.instances.len() as u64 > MAX_COUNT {
         return unwritable(format!(
             "{} trees (a file holds at most {MAX_COUNT})",
@@ -213,12 +272,18 @@ pub fn encode(forest: &Forest) -> Result<Vec<u8>, InstancesError> {
         info: forest.info.clone(),
         count: forest.instances.len() as u64,
     };
-    let header = bincode::encode_to_vec(&header, header_config())
+    let mut header = bincode::encode_to_vec(&header, header_config())
         .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?;
+    if let Some(h) = &forest.heightmap {
+        header.extend(
+            bincode::encode_to_vec(h, header_config())
+                .map_err(|e| ContainerError::TooLarge(format!("header: {e}")))?,
+        );
+    }
     Ok(container::write(
         MAGIC,
         MAJOR,
-        MINOR,
+        forest.minor(),
         &header,
         &payload(forest),
     )?)
@@ -268,7 +333,7 @@ pub(crate) fn forge(forest: &Forest, edit: impl FnOnce(&mut Header, &mut Vec<u8>
     edit(&mut header, &mut payload);
     bincode::encode_to_vec(&header, header_config())
         .ok()
-        .and_then(|h| container::write(MAGIC, MAJOR, MINOR, &h, &payload).ok())
+        .and_then(|h| container::write(MAGIC, MAJOR, 0, &h, &payload).ok())
         .unwrap_or_default()
 }
 
@@ -285,6 +350,18 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Forest, InstancesErr
     let (header, used): (Header, usize) =
         bincode::decode_from_slice(opened.header, header_config())
             .map_err(|e| bad(container::decode_error(&e)))?;
+    // The heightmap conversion follows `count` from 1.1 on.
+    let mut used = used;
+    let heightmap = if opened.minor >= HEIGHTMAP_MINOR {
+        let (h, n): (HeightmapOptions, usize) =
+            bincode::decode_from_slice(&opened.header[used..], header_config())
+                .map_err(|e| bad(format!("heightmap: {}", container::decode_error(&e))))?;
+        used += n;
+        validate_heightmap(&h)?;
+        Some(h)
+    } else {
+        None
+    };
     // Header fields a newer minor version appended are skipped (formats/container.md).
     let is_newer = opened.minor > MINOR;
     if used != opened.header.len() && !is_newer {
@@ -347,7 +424,17 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Forest, InstancesErr
             variation: variation[i] as u16,
         })
         .collect();
-    Ok(Forest { info, instances })
+    Ok(Forest {
+        info,
+        instances,
+        heightmap,
+    })
+}
+
+/// Check 10 of formats/instances.md: a recorded heightmap conversion a terrain can have.
+fn validate_heightmap(h: &HeightmapOptions) -> Result<(), InstancesError> {
+    h.validate()
+        .map_err(|(field, m)| InstancesError::Header(format!("heightmap: {field}: {m}")))
 }
 
 fn validate(info: &ForestInfo) -> Result<(), InstancesError> {
@@ -466,6 +553,7 @@ pub(crate) mod tests {
                 species: vec![record],
             },
             instances,
+            heightmap: None,
         }
     }
 
@@ -487,6 +575,30 @@ pub(crate) mod tests {
             );
         }
         assert_eq!(encode(&back).unwrap(), encode(&f).unwrap());
+    }
+
+    /// A forest on a heightmap is a 1.1 file whose conversion reads back; on a glTF, 1.0 with
+    /// nothing after `count`.
+    #[test]
+    fn heightmap_conversion_is_a_1_1_field_after_count() {
+        let mut f = sample_forest(5);
+        let plain = encode(&f).unwrap();
+        assert_eq!(container::preamble(&plain).unwrap().minor, 0);
+        f.heightmap = Some(HeightmapOptions {
+            size: Some([1000.0, 800.0]),
+            height_range: None,
+        });
+        let bytes = encode(&f).unwrap();
+        assert_eq!(container::preamble(&bytes).unwrap().minor, 1);
+        // Option tags: 1 then two f64, then 0.
+        assert_eq!(bytes.len(), plain.len() + 1 + 16 + 1);
+        assert_eq!(decode(&bytes).unwrap(), f);
+        f.heightmap = Some(HeightmapOptions {
+            size: None,
+            height_range: Some([5.0, 5.0]),
+        });
+        let e = encode(&f).unwrap_err().to_string();
+        assert!(e.contains("--height-range") && e.contains("LO < HI"), "{e}");
     }
 
     #[test]

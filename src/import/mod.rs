@@ -215,7 +215,7 @@ pub enum ImportError {
     },
 }
 
-fn field_prefix(field: &str) -> String {
+pub(crate) fn field_prefix(field: &str) -> String {
     if field.is_empty() {
         String::new()
     } else {

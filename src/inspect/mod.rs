@@ -29,6 +29,12 @@ impl Kind {
             Some("texel") => Some(Kind::Texel),
             Some("instances") => Some(Kind::Instances),
             Some("glb" | "gltf") => Some(Kind::Terrain),
+            _ if crate::terrain::heightmap::Format::of(head, std::path::Path::new(""))
+                .is_some() =>
+            {
+                Some(Kind::Terrain)
+            }
+            Some("png" | "exr" | "tif" | "tiff" | "r16" | "raw") => Some(Kind::Terrain),
             _ if head.starts_with(b"glTF") || head.trim_ascii_start().starts_with(b"{") => {
                 Some(Kind::Terrain)
             }

@@ -10,7 +10,7 @@ use crate::formats::{container, texel};
 use crate::limits::Limits;
 use crate::provenance::{self, SourceFile};
 use crate::species::{Species, SpeciesError, SpeciesFile};
-use crate::terrain::{Terrain, TerrainError};
+use crate::terrain::{HeightmapOptions, Terrain, TerrainError};
 
 /// Everything placement needs, read and checked.
 pub struct PlaceInputs {
@@ -48,10 +48,12 @@ fn file_error(what: String, e: impl std::error::Error + Send + Sync + 'static) -
     }
 }
 
-/// Reads the species file at `species`, every texture it names and the terrain at `terrain`;
-/// paths are recorded relative to `out_dir`, where the forest file will be.
+/// Reads the species file at `species`, every texture it names and the terrain at `terrain`
+/// (a heightmap converted with `heightmap`); paths are recorded relative to `out_dir`, where
+/// the forest file will be.
 pub fn load(
     terrain: &Path,
+    heightmap: &HeightmapOptions,
     species: &Path,
     out_dir: &Path,
     limits: &Limits,
@@ -82,7 +84,7 @@ pub fn load(
         model_heights.push(height);
         records.push(species_record(s, texel_source, leafless, height));
     }
-    let terrain = Terrain::load(terrain, limits)?;
+    let terrain = Terrain::load_with(terrain, heightmap, limits)?;
     let mut all: Vec<PathBuf> = terrain
         .model
         .sources
@@ -154,5 +156,6 @@ pub fn forest_file(
             species: inputs.records.clone(),
         },
         instances: placement.instances,
+        heightmap: inputs.terrain.heightmap,
     }
 }

@@ -587,7 +587,7 @@ fn instances_files(valid: &[u8], files: &mut Vec<InvalidFile>) {
     );
     add(
         "header-bytes-left-over",
-        grown_header(valid, instances::MINOR),
+        grown_header(valid, 0),
         "4 bytes after the header",
     );
 }

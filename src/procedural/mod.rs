@@ -18,6 +18,7 @@ use crate::provenance::SourceFile;
 use crate::species::{
     AutumnColor, ColorKey, Form, FractionKey, LeafHabit, LeafOut, Light, Seasons, Traits,
 };
+use crate::terrain::HeightmapOptions;
 
 const GENERATOR: &str = "texel-forest procedural fixtures";
 
@@ -43,6 +44,12 @@ pub fn fixture_files() -> Vec<(String, Vec<u8>)> {
     files.push((
         "trees/bare.glb".to_string(),
         builder::glb(&bare.doc, &bare.bin),
+    ));
+    // The demo's heightmap terrain: another mountain as a 129 x 129 16-bit grey PNG, 1 km
+    // across, heights 100 to 600 m (make demo: --terrain-size 1000,1000 --height-range 100,600).
+    files.push((
+        "terrain/valley.png".to_string(),
+        terrain::mountain_png(1000.0, 129, 11, [100.0, 600.0]),
     ));
     // The demo's terrain: a mountain 1 km across, 129 x 129 vertices (7.8 m cells).
     let mountain = terrain::mountain(1000.0, 129, 5).to_gltf(None, GENERATOR);
@@ -80,7 +87,33 @@ pub fn golden_instances() -> anyhow::Result<Vec<u8>> {
     let origin = [-1000.0, 120.0, -2000.0];
     let instances = golden_trees(origin);
     let info = golden_forest_info(origin, vec![golden_beech(), golden_pine()]);
-    Ok(instances::encode(&instances::Forest { info, instances })?)
+    Ok(instances::encode(&instances::Forest {
+        info,
+        instances,
+        heightmap: None,
+    })?)
+}
+
+/// The golden 1.1 `.instances` (`fixtures/formats/forest-12-heightmap.instances`): the golden
+/// forest placed on a heightmap, so the header ends with the conversion field 1.1 adds (a size
+/// and a height range, both present).
+pub fn golden_heightmap_instances() -> anyhow::Result<Vec<u8>> {
+    let origin = [-1000.0, 120.0, -2000.0];
+    let instances = golden_trees(origin);
+    let mut info = golden_forest_info(origin, vec![golden_beech(), golden_pine()]);
+    info.terrain = vec![SourceFile {
+        path: "terrain/valley.png".into(),
+        sha256: [0x73; 32],
+        bytes: 30_000,
+    }];
+    Ok(instances::encode(&instances::Forest {
+        info,
+        instances,
+        heightmap: Some(HeightmapOptions {
+            size: Some([2000.0, 2000.0]),
+            height_range: Some([-12.5, 480.5]),
+        }),
+    })?)
 }
 
 /// The golden file's deciduous species: a leafless texture, and seasons with several

@@ -76,3 +76,31 @@ pub fn mountain(size: f64, n: usize, seed: u64) -> ModelBuilder {
     b.grid(m, [x0 as f32; 2], cell as f32, [n, n], &heights);
     b
 }
+
+/// [`mountain_height`] over `n` x `n` samples `size` metres across as a 16-bit grey PNG, row 0
+/// north, 0 and 65535 standing for heights `lo` and `hi` (clamped): a heightmap terrain.
+pub fn mountain_png(size: f64, n: usize, seed: u64, [lo, hi]: [f64; 2]) -> Vec<u8> {
+    let cell = size / (n - 1) as f64;
+    let x0 = -0.5 * size;
+    let mut data = Vec::with_capacity(2 * n * n);
+    for k in 0..n * n {
+        let h = mountain_height(
+            x0 + (k % n) as f64 * cell,
+            x0 + (k / n) as f64 * cell,
+            size,
+            seed,
+        );
+        let v = ((h - lo) / (hi - lo) * 65535.0).round().clamp(0.0, 65535.0) as u16;
+        data.extend(v.to_be_bytes());
+    }
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, n as u32, n as u32);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Sixteen);
+    encoder.set_compression(png::Compression::High);
+    // A PNG encoder writing to memory fails only on sizes PNG cannot hold.
+    if let Ok(mut w) = encoder.write_header() {
+        let _ = w.write_image_data(&data);
+    }
+    out
+}

@@ -18,6 +18,7 @@ use crate::import::{self, Model};
 use crate::input::MAX_GLTF;
 use crate::limits::Limits;
 use crate::provenance::{self, ProvenanceError};
+use crate::terrain::{self, HeightmapOptions};
 use crate::volume::Texel;
 
 /// What to load.
@@ -26,6 +27,9 @@ pub struct SceneRequest<'a> {
     pub forest: &'a Path,
     /// A terrain to use instead of the recorded one (not checked against the record).
     pub terrain: Option<&'a Path>,
+    /// How to convert `terrain` if it is a heightmap (the recorded conversion is used for
+    /// the recorded terrain).
+    pub heightmap: HeightmapOptions,
     /// Day of the year: picks each species' foliage colour, leaf fraction and texture.
     pub day: f64,
     /// Also load the tree models (for `Method::Mesh`).
@@ -131,22 +135,29 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
 }
 
 /// The terrain: the one asked for, or the one the forest recorded, every file of it (the glTF,
-/// its buffers and images) unchanged since.
+/// its buffers and images, or the heightmap) unchanged since, a heightmap converted as
+/// recorded.
 fn load_terrain(
     request: &SceneRequest,
     forest: &instances::Forest,
     dir: &Path,
 ) -> Result<Model, LoadError> {
-    let terrain_path = match request.terrain {
-        Some(t) => t.to_path_buf(),
+    let (terrain_path, options) = match request.terrain {
+        Some(t) => (t.to_path_buf(), request.heightmap),
         None => {
             let files = provenance::verify_all(&forest.info.terrain, dir, PLACED, MAX_GLTF)
                 .map_err(|e| stale(request.forest, e, "re-run texel place"))?;
-            files[0].clone()
+            (files[0].clone(), forest.heightmap.unwrap_or_default())
         }
     };
-    import::load_surface(&terrain_path, "to render as a terrain", &request.limits)
-        .map_err(|e| file_error(&terrain_path, e))
+    terrain::load_model(
+        &terrain_path,
+        &options,
+        "to render as a terrain",
+        &request.limits,
+    )
+    .map(|(model, _)| model)
+    .map_err(|e| file_error(&terrain_path, e))
 }
 
 /// The textures a forest names, each read once, checked against the forest's record and

@@ -2,10 +2,12 @@
 //! (slope, aspect, topographic position, wetness) decide where which tree grows.
 
 mod attributes;
+pub mod heightmap;
 mod raster;
 pub mod survey;
 
 pub use attributes::{Attributes, TERRAIN_ATTRIBUTES, hillshade};
+pub use heightmap::{HeightmapError, HeightmapOptions};
 pub use raster::Heightfield;
 
 use std::path::Path;
@@ -23,20 +25,37 @@ pub struct Terrain {
     /// Bounds of the surface, metres.
     pub lo: DVec3,
     pub hi: DVec3,
+    /// How a heightmap was turned into the mesh; `None` for a glTF terrain.
+    pub heightmap: Option<HeightmapOptions>,
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum TerrainError {
     #[error(transparent)]
     Import(#[from] ImportError),
+    #[error(transparent)]
+    Heightmap(#[from] HeightmapError),
     #[error("{0}")]
     Invalid(String),
 }
 
 impl Terrain {
+    /// A glTF terrain, or a heightmap whose size and heights the image says (a GeoTIFF).
     pub fn load(path: &Path, limits: &Limits) -> Result<Terrain, TerrainError> {
-        let model = import::load_surface(path, "to place trees on", limits)?;
-        Ok(Terrain::from_model(model))
+        Terrain::load_with(path, &HeightmapOptions::default(), limits)
+    }
+
+    /// A glTF terrain, or a heightmap converted with `options`.
+    pub fn load_with(
+        path: &Path,
+        options: &HeightmapOptions,
+        limits: &Limits,
+    ) -> Result<Terrain, TerrainError> {
+        let (model, heightmap) = load_model(path, options, "to place trees on", limits)?;
+        Ok(Terrain {
+            heightmap,
+            ..Terrain::from_model(model)
+        })
     }
 
     pub fn from_model(model: Model) -> Terrain {
@@ -49,6 +68,7 @@ impl Terrain {
             triangles,
             lo: b.lo.as_dvec3(),
             hi: b.hi.as_dvec3(),
+            heightmap: None,
         }
     }
 
@@ -96,6 +116,29 @@ impl Terrain {
         let area = (self.hi.x - self.lo.x) * (self.hi.z - self.lo.z);
         (area / (self.triangles.len().max(1) as f64 / 2.0)).sqrt()
     }
+}
+
+/// The terrain surface at `path`: a heightmap image (by its first bytes or its name)
+/// triangulated with `options`, with the options as recorded, or a glTF (`purpose` completes
+/// "there is nothing ..." when it holds no triangles), for which `options` must be empty.
+pub fn load_model(
+    path: &Path,
+    options: &HeightmapOptions,
+    purpose: &str,
+    limits: &Limits,
+) -> Result<(Model, Option<HeightmapOptions>), TerrainError> {
+    if let Some(format) = heightmap::Format::of_file(path) {
+        let model = heightmap::load(path, format, options, limits)?;
+        return Ok((model, Some(*options)));
+    }
+    if !options.is_empty() {
+        return Err(TerrainError::Invalid(format!(
+            "{}: --terrain-size and --height-range convert heightmap images (PNG, EXR, TIFF, \
+             .r16); this is a glTF terrain, already in metres",
+            path.display()
+        )));
+    }
+    Ok((import::load_surface(path, purpose, limits)?, None))
 }
 
 #[cfg(test)]

@@ -1,0 +1,230 @@
+//! TIFF and GeoTIFF heightmaps through the `tiff` crate: one grey channel of 8/16-bit
+//! unsigned integers (scaled by `--height-range`), 16-bit signed integers or 32/64-bit floats
+//! (metres as stored). The GeoTIFF tags, where present, give the ground spacing; units that
+//! are not metres are refused unless `--terrain-size` says the extent instead.
+
+use std::io::Cursor;
+use std::path::Path;
+
+use tiff::decoder::{Decoder, DecodingResult};
+use tiff::tags::Tag;
+
+use super::{HeightmapError, HeightmapOptions, Raster, Samples, check_size, error};
+use crate::limits::Limits;
+
+/// Where the samples lie, from the GeoTIFF tags: spacing east and south (m) and the
+/// north-west sample's offset from the raster's north-west corner (x = 0, z = 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Placement {
+    pub spacing: [f64; 2],
+    pub first: [f64; 2],
+}
+
+/// GeoKey ids this reader looks at (GeoTIFF 1.1, section 7).
+const MODEL_TYPE: u16 = 1024;
+const RASTER_TYPE: u16 = 1025;
+const PROJ_LINEAR_UNITS: u16 = 3076;
+const VERTICAL_UNITS: u16 = 4099;
+/// EPSG's metre (Linear_Meter).
+const METRE: u16 = 9001;
+/// GTModelTypeGeoKey: geographic latitude-longitude.
+const GEOGRAPHIC: u16 = 2;
+/// GTRasterTypeGeoKey: RasterPixelIsPoint (1 is RasterPixelIsArea, the default).
+const PIXEL_IS_POINT: u16 = 2;
+
+pub(crate) fn read(
+    file: &Path,
+    bytes: &[u8],
+    options: &HeightmapOptions,
+    limits: &Limits,
+) -> Result<Raster, HeightmapError> {
+    let bad = |e: tiff::TiffError| error(file, "", format!("not a readable TIFF: {e}"));
+    let mut tiff_limits = tiff::decoder::Limits::default();
+    // Our pixel limit decides; tiff's own 256 MiB buffer limit would refuse first.
+    tiff_limits.decoding_buffer_size = usize::MAX;
+    tiff_limits.intermediate_buffer_size = usize::MAX;
+    let mut d = Decoder::new(Cursor::new(bytes))
+        .map_err(bad)?
+        .with_limits(tiff_limits);
+    let (width, height) = d.dimensions().map_err(bad)?;
+    match d.colortype().map_err(bad)? {
+        tiff::ColorType::Gray(_) => {}
+        other => {
+            return Err(error(
+                file,
+                "PhotometricInterpretation",
+                format!("{other:?}: a heightmap TIFF must be one grey channel"),
+            ));
+        }
+    }
+    check_size(file, width as u64, height as u64, limits)?;
+    let mut notes = vec![];
+    let geo = georeference(file, &mut d, options, &mut notes)?;
+    let samples = match d.read_image().map_err(bad)? {
+        DecodingResult::U8(v) => Samples::Integer(v.into_iter().map(u16::from).collect(), 255),
+        DecodingResult::U16(v) => Samples::Integer(v, 65535),
+        DecodingResult::I16(v) => Samples::Metres(v.into_iter().map(f32::from).collect()),
+        DecodingResult::F32(v) => Samples::Metres(v),
+        DecodingResult::F64(v) => Samples::Metres(v.into_iter().map(|h| h as f32).collect()),
+        _ => {
+            return Err(error(
+                file,
+                "SampleFormat",
+                "unsupported sample type: a heightmap TIFF holds 8 or 16-bit unsigned integers, \
+                 16-bit signed integers or 32/64-bit floats",
+            ));
+        }
+    };
+    Ok(Raster {
+        width: width as usize,
+        height: height as usize,
+        samples,
+        geo,
+        notes,
+    })
+}
+
+/// The GeoKeys stored in the directory itself (`TIFFTagLocation` 0), by id.
+fn geokeys(directory: &[u16]) -> Vec<(u16, u16)> {
+    let count = directory.get(3).copied().unwrap_or(0) as usize;
+    directory
+        .get(4..)
+        .unwrap_or(&[])
+        .chunks_exact(4)
+        .take(count)
+        .filter(|k| k[1] == 0)
+        .map(|k| (k[0], k[3]))
+        .collect()
+}
+
+fn unit_name(code: u16) -> &'static str {
+    match code {
+        9001 => "metre",
+        9002 => "international foot",
+        9003 => "US survey foot",
+        9101 => "radian",
+        9102 => "degree",
+        _ => "EPSG unit",
+    }
+}
+
+/// The sample placement the GeoTIFF tags give, `None` without a pixel scale (or when
+/// `--terrain-size` replaces it). Units other than metres are refused unless `--terrain-size`
+/// is given, which then says the extent (and a note says so).
+fn georeference(
+    file: &Path,
+    d: &mut Decoder<Cursor<&[u8]>>,
+    options: &HeightmapOptions,
+    notes: &mut Vec<String>,
+) -> Result<Option<Placement>, HeightmapError> {
+    let bad = |tag: &str, e: tiff::TiffError| error(file, tag, e);
+    let scale = d
+        .find_tag(Tag::ModelPixelScaleTag)
+        .map_err(|e| bad("ModelPixelScaleTag (33550)", e))?
+        .map(|v| v.into_f64_vec())
+        .transpose()
+        .map_err(|e| bad("ModelPixelScaleTag (33550)", e))?;
+    let tiepoint = d
+        .find_tag(Tag::ModelTiepointTag)
+        .map_err(|e| bad("ModelTiepointTag (33922)", e))?
+        .map(|v| v.into_f64_vec())
+        .transpose()
+        .map_err(|e| bad("ModelTiepointTag (33922)", e))?;
+    let keys = d
+        .find_tag(Tag::GeoKeyDirectoryTag)
+        .map_err(|e| bad("GeoKeyDirectoryTag (34735)", e))?
+        .map(|v| v.into_u16_vec())
+        .transpose()
+        .map_err(|e| bad("GeoKeyDirectoryTag (34735)", e))?
+        .map(|k| geokeys(&k))
+        .unwrap_or_default();
+    let key = |id: u16| keys.iter().find(|k| k.0 == id).map(|k| k.1);
+    let vertical = key(VERTICAL_UNITS);
+    if let Some(u) = vertical.filter(|&u| u != METRE) {
+        return Err(error(
+            file,
+            "VerticalUnitsGeoKey (4099)",
+            format!(
+                "heights are in unit {u} ({}), not metres (9001): convert them to metres first",
+                unit_name(u)
+            ),
+        ));
+    }
+    // What keeps the tags' pixel size from being metres, if anything.
+    let not_metres = if key(MODEL_TYPE) == Some(GEOGRAPHIC) {
+        Some((
+            "GTModelTypeGeoKey (1024)",
+            "is 2, a geographic CRS: the pixel size is in degrees, not metres".to_string(),
+        ))
+    } else {
+        key(PROJ_LINEAR_UNITS).filter(|&u| u != METRE).map(|u| {
+            (
+                "ProjLinearUnitsGeoKey (3076)",
+                format!(
+                    "is {u} ({}): the pixel size is not in metres (9001)",
+                    unit_name(u)
+                ),
+            )
+        })
+    };
+    if let Some([x, z]) = options.size {
+        if let Some((field, why)) = &not_metres {
+            notes.push(format!(
+                "{}: {field} {why}; using --terrain-size {x},{z} m as the extent instead",
+                file.display()
+            ));
+        } else if scale.is_some() {
+            notes.push(format!(
+                "{}: using --terrain-size {x},{z} m as the extent instead of the GeoTIFF's \
+                 pixel size",
+                file.display()
+            ));
+        }
+        return Ok(None);
+    }
+    if let Some((field, why)) = not_metres {
+        return Err(error(
+            file,
+            field,
+            format!(
+                "{why}; reproject it to a metric CRS (e.g. UTM) or give --terrain-size X,Z \
+                 (the extent in metres)"
+            ),
+        ));
+    }
+    let Some(scale) = scale else {
+        return Ok(None);
+    };
+    let (sx, sz) = match scale[..] {
+        [sx, sz, ..] if sx.is_finite() && sz.is_finite() && sx > 0.0 && sz > 0.0 => (sx, sz),
+        _ => {
+            return Err(error(
+                file,
+                "ModelPixelScaleTag (33550)",
+                format!("{scale:?} is not two positive finite pixel sizes"),
+            ));
+        }
+    };
+    let point = key(RASTER_TYPE) == Some(PIXEL_IS_POINT);
+    if let Some(&[i, j, _, x, y, ..]) = tiepoint.as_deref() {
+        notes.push(format!(
+            "{}: x = 0, z = 0 is the raster's north-west {} at easting {:.3}, northing {:.3} \
+             of its CRS",
+            file.display(),
+            if point { "sample" } else { "corner" },
+            x - i * sx,
+            y + j * sz
+        ));
+    }
+    // Pixel-is-area: a sample stands for its pixel's square, so it lies at the square's
+    // centre, half a pixel in from the corner the tiepoint names.
+    let first = if point {
+        [0.0, 0.0]
+    } else {
+        [0.5 * sx, 0.5 * sz]
+    };
+    Ok(Some(Placement {
+        spacing: [sx, sz],
+        first,
+    }))
+}
