@@ -118,6 +118,19 @@ fn place_and_render_on_a_heightmap_without_repeating_the_flags() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    // The forest's summary says how its terrain was converted.
+    let o = run(&["inspect", "forest.instances"], d);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("heightmap     1000 x 1000 m (--terrain-size), heights 100 .. 600 m"),
+        "{text}"
+    );
+    let o = run(&["inspect", "forest.instances", "--json"], d);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        json["heightmap"]["height_range"],
+        serde_json::json!([100.0, 600.0])
+    );
 }
 
 /// The shared real DEM (a 257 x 257 glTF grid) sampled at its vertices into a 16-bit PNG reads

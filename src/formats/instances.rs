@@ -74,7 +74,9 @@ impl SpeciesRecord {
 
 /// How to turn a heightmap's samples into metres: what `--terrain-size` and `--height-range`
 /// say, recorded in a forest placed on a heightmap so a render rebuilds the same mesh.
-#[derive(Clone, Copy, Debug, Default, PartialEq, bincode::Encode, bincode::Decode)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, bincode::Encode, bincode::Decode, serde::Serialize,
+)]
 pub struct HeightmapOptions {
     /// Full extent east-west and north-south (m), first to last sample.
     pub size: Option<[f64; 2]>,

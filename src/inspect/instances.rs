@@ -51,6 +51,8 @@ pub struct ForestSummary {
     /// Tree heights (m): ten equal bins between the smallest and the largest.
     pub height_bins: Vec<(f64, f64, usize)>,
     pub terrain: Vec<SourceFile>,
+    /// How the terrain image became a mesh, when it is a heightmap.
+    pub heightmap: Option<crate::formats::instances::HeightmapOptions>,
     pub species_file: SourceFile,
 }
 
@@ -190,6 +192,7 @@ pub fn summarize(f: &Forest, file: super::FileFacts) -> ForestSummary {
         min_distance_ratio: closest.map(|c| c.1),
         height_bins: bins,
         terrain: f.info.terrain.clone(),
+        heightmap: f.heightmap,
         species_file: f.info.species_file.clone(),
     }
 }
@@ -276,6 +279,17 @@ pub fn to_text(s: &ForestSummary) -> String {
             t.bytes,
             hex(&t.sha256)
         );
+    }
+    if let Some(h) = &s.heightmap {
+        let size = h
+            .size
+            .map_or("from its GeoTIFF tags".to_string(), |[x, z]| {
+                format!("{x} x {z} m (--terrain-size)")
+            });
+        let heights = h.height_range.map_or("as stored".to_string(), |[lo, hi]| {
+            format!("{lo} .. {hi} m (--height-range)")
+        });
+        let _ = writeln!(o, "heightmap     {size}, heights {heights}");
     }
     let sf = &s.species_file;
     let _ = writeln!(
