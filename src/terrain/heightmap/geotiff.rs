@@ -31,6 +31,9 @@ const METRE: u16 = 9001;
 const GEOGRAPHIC: u16 = 2;
 /// GTRasterTypeGeoKey: RasterPixelIsPoint (1 is RasterPixelIsArea, the default).
 const PIXEL_IS_POINT: u16 = 2;
+/// GDAL's no-data value, an ASCII number (how GDAL and the GIS tools built on it mark the
+/// samples a DEM has no height for).
+const GDAL_NODATA: u16 = 42113;
 
 pub(crate) fn read(
     file: &Path,
@@ -60,6 +63,10 @@ pub(crate) fn read(
     check_size(file, width as u64, height as u64, limits)?;
     let mut notes = vec![];
     let geo = georeference(file, &mut d, options, &mut notes)?;
+    let nodata = d
+        .get_tag_ascii_string(Tag::Unknown(GDAL_NODATA))
+        .ok()
+        .and_then(|s| s.trim().trim_end_matches('\0').parse::<f64>().ok());
     let samples = match d.read_image().map_err(bad)? {
         DecodingResult::U8(v) => Samples::Integer(v.into_iter().map(u16::from).collect(), 255),
         DecodingResult::U16(v) => Samples::Integer(v, 65535),
@@ -75,6 +82,9 @@ pub(crate) fn read(
             ));
         }
     };
+    if let Some(nodata) = nodata {
+        refuse_nodata(file, &samples, width as usize, nodata)?;
+    }
     Ok(Raster {
         width: width as usize,
         height: height as usize,
@@ -82,6 +92,31 @@ pub(crate) fn read(
         geo,
         notes,
     })
+}
+
+/// Refuses a raster with a sample equal to its GDAL_NODATA value: a hole would become a pit
+/// (or a spike) as deep as the sentinel, and trees would be placed down it.
+fn refuse_nodata(
+    file: &Path,
+    samples: &Samples,
+    width: usize,
+    nodata: f64,
+) -> Result<(), HeightmapError> {
+    let found = match samples {
+        Samples::Integer(values, _) => values.iter().position(|&v| f64::from(v) == nodata),
+        Samples::Metres(values) => values.iter().position(|&v| f64::from(v) == nodata),
+    };
+    match found {
+        None => Ok(()),
+        Some(k) => Err(error(
+            file,
+            format!("pixel (column {}, row {})", k % width, k / width),
+            format!(
+                "{nodata} is the file's no-data value (GDAL_NODATA, tag {GDAL_NODATA}): the \
+                 terrain has a hole there; fill no-data before use (e.g. gdal_fillnodata)"
+            ),
+        )),
+    }
 }
 
 /// The GeoKeys stored in the directory itself (`TIFFTagLocation` 0), by id.

@@ -207,6 +207,34 @@ fn geotiff_float_takes_spacing_from_its_tags_pixel_is_area() {
     assert_close(at(&m, 4, 3, 2), Vec3::new(30.0, 261.5, 10.0));
 }
 
+/// A DEM's no-data value (GDAL_NODATA) is refused where a sample holds it, naming the pixel;
+/// a file that declares one and has none loads.
+#[test]
+fn geotiff_no_data_samples_are_refused_by_pixel() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, heights: &[f32]| {
+        let path = dir.path().join(name);
+        let file = std::fs::File::create(&path).unwrap();
+        let mut enc = TiffEncoder::new(file).unwrap();
+        let mut img = enc.new_image::<colortype::Gray32Float>(4, 3).unwrap();
+        img.encoder()
+            .write_tag(Tag::Unknown(42113), "-9999")
+            .unwrap();
+        img.write_data(heights).unwrap();
+        path
+    };
+    let mut heights: Vec<f32> = (0..12).map(|k| 250.0 + k as f32).collect();
+    let size = opts(Some([30.0, 20.0]), None);
+    load_file(&write("whole.tif", &heights), &size).unwrap();
+    heights[6] = -9999.0;
+    let e = load_file(&write("hole.tif", &heights), &size)
+        .unwrap_err()
+        .to_string();
+    for needle in ["hole.tif", "column 2, row 1", "GDAL_NODATA", "-9999"] {
+        assert!(e.contains(needle), "{needle} missing from {e}");
+    }
+}
+
 #[test]
 fn tiff_integers_scale_by_the_range_or_are_metres_when_signed() {
     let dir = tempfile::tempdir().unwrap();
