@@ -292,19 +292,7 @@ fn a_model_changed_since_the_bake_is_refused_and_nothing_is_written() {
     species_with_texels(d);
     // The conifer baked from a copy this test can change.
     std::fs::copy(fixture("trees/conifer.glb"), d.join("trees/conifer.glb")).unwrap();
-    let o = run(
-        &[
-            "bake",
-            "trees/conifer.glb",
-            "-o",
-            "trees/conifer.texel",
-            "--resolution",
-            "8",
-            "--fine",
-            "32",
-        ],
-        d,
-    );
+    let o = bake_coarse(d, "trees/conifer.glb", "trees/conifer.texel");
     assert!(o.status.success(), "{}", stderr(&o));
     let o = place_on_mountain(d, &["--region=-120,-120,120,120"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -479,19 +467,7 @@ fn export_with_broadleaf(model: &Path) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     species_with_texels(d);
-    let o = run(
-        &[
-            "bake",
-            model.to_str().unwrap(),
-            "-o",
-            "trees/broadleaf.texel",
-            "--resolution",
-            "8",
-            "--fine",
-            "32",
-        ],
-        d,
-    );
+    let o = bake_coarse(d, model.to_str().unwrap(), "trees/broadleaf.texel");
     assert!(o.status.success(), "{}", stderr(&o));
     let o = place_on_mountain(d, &["--region=-120,-120,120,120"]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -14,17 +14,7 @@ const SIZE: &str = "--terrain-size=1000,1000";
 const RANGE: &str = "--height-range=100,600";
 
 fn place_on_valley(dir: &Path, extra: &[&str]) -> std::process::Output {
-    let terrain = fixture("terrain/valley.png");
-    let mut args = vec![
-        "place",
-        terrain.to_str().unwrap(),
-        "--species",
-        "species.json",
-        "-o",
-        "forest.instances",
-    ];
-    args.extend_from_slice(extra);
-    run(&args, dir)
+    place_on("terrain/valley.png", dir, extra)
 }
 
 #[test]

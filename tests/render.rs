@@ -288,19 +288,7 @@ fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale
     std::fs::copy(fixture("species/forest.json"), d.join("species.json")).unwrap();
     for name in ["conifer.glb", "broadleaf.gltf", "bare.glb"] {
         let stem = name.split('.').next().unwrap();
-        let o = run(
-            &[
-                "bake",
-                &format!("models/{name}"),
-                "-o",
-                &format!("trees/{stem}.texel"),
-                "--resolution",
-                "8",
-                "--fine",
-                "32",
-            ],
-            d,
-        );
+        let o = bake_coarse(d, &format!("models/{name}"), &format!("trees/{stem}.texel"));
         assert!(o.status.success(), "{}", stderr(&o));
     }
     let o = place_on_mountain(d, &["--region=-120,-120,120,120"]);

@@ -155,8 +155,18 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
                 let targets: Vec<&Path> = shots.iter().map(|s| s.exr.as_path()).collect();
                 (d.as_path(), depfile_for(&targets, &dependencies))
             });
-        let names = MatteNames::new(species.clone(), &scene);
-        write(args, shot, &film, (&camera, &names), &dependencies, depfile)?;
+        // Only Cryptomatte names objects: a name per tree is work a plain frame does not need.
+        let names = settings
+            .mattes
+            .then(|| MatteNames::new(species.clone(), &scene));
+        write(
+            args,
+            shot,
+            &film,
+            (&camera, names.as_ref()),
+            &dependencies,
+            depfile,
+        )?;
         if !quiet {
             let what = if sequence {
                 format!("frame {}: ", shot.frame.unwrap_or(0))
@@ -380,7 +390,7 @@ fn write(
     args: &RenderArgs,
     shot: &Shot,
     film: &Film,
-    (camera, names): (&Camera, &MatteNames),
+    (camera, names): (&Camera, Option<&MatteNames>),
     dependencies: &[PathBuf],
     depfile: Option<(&Path, String)>,
 ) -> anyhow::Result<()> {
@@ -402,7 +412,7 @@ fn write(
             aovs,
             camera.world_to_camera(),
             camera.world_to_ndc(),
-            Some(names),
+            names,
         )
         .map_err(|e| anyhow::anyhow!("{}: cannot encode: {e}", shot.exr.display()))?;
     if exr.clamped > 0 {

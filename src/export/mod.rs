@@ -68,17 +68,20 @@ fn trs_properties(node: &mut Value, (t, r, s): (DVec3, DQuat, DVec3)) {
     }
 }
 
-/// Refuses a mesh whose place in its model is not a translation, rotation and scale.
-fn check_trs(model: &crate::import::RawGltf, m: &CopiedMesh) -> Result<(), ImportError> {
-    if decompose(&m.placed.world).is_none() {
-        return Err(ImportError::unsupported(
+/// The translation, rotation and scale of a mesh's place in its model; refused where it is
+/// not one.
+fn check_trs(
+    model: &crate::import::RawGltf,
+    m: &CopiedMesh,
+) -> Result<(DVec3, DQuat, DVec3), ImportError> {
+    decompose(&m.placed.world).ok_or_else(|| {
+        ImportError::unsupported(
             model.path(),
             format!("nodes[{}]", m.placed.node),
             "the node hierarchy shears this mesh (a non-uniform scale above a rotation): \
              its instances cannot be written as translation, rotation and scale",
-        ));
-    }
-    Ok(())
+        )
+    })
 }
 
 /// The binary glTF of the loaded forest: per species with trees, a node whose children are
@@ -155,12 +158,12 @@ pub fn glb(inputs: &mut Inputs, warnings: &mut Vec<String>) -> Result<Vec<u8>, E
         let meshes = copy_model(terrain, &mut out).map_err(ExportError::from)?;
         let mut children = Vec::new();
         for mesh in &meshes {
-            check_trs(terrain, mesh)?;
+            let trs = check_trs(terrain, mesh)?;
             let mut node = json!({ "mesh": mesh.mesh });
             if let Some(n) = &mesh.name {
                 node["name"] = json!(n);
             }
-            trs_properties(&mut node, decompose(&mesh.placed.world).expect("checked"));
+            trs_properties(&mut node, trs);
             children.push(out.node(node));
         }
         roots.push(out.node(json!({ "name": "terrain", "children": children })));

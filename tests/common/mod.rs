@@ -67,27 +67,40 @@ pub fn species_with_texels(dir: &Path) {
             .unwrap()
             .to_string_lossy()
             .into_owned();
-        let out = format!("trees/{name}.texel");
-        let o = run(
-            &[
-                "bake",
-                fixture(tree).to_str().unwrap(),
-                "-o",
-                &out,
-                "--resolution",
-                "8",
-                "--fine",
-                "32",
-            ],
+        let o = bake_coarse(
             dir,
+            fixture(tree).to_str().unwrap(),
+            &format!("trees/{name}.texel"),
         );
         assert!(o.status.success(), "{}", stderr(&o));
     }
 }
 
+/// `texel bake` of `model` to `texel`, coarse (8 cells, 32 fine) as the tests' forests are.
+pub fn bake_coarse(dir: &Path, model: &str, texel: &str) -> Output {
+    run(
+        &[
+            "bake",
+            model,
+            "-o",
+            texel,
+            "--resolution",
+            "8",
+            "--fine",
+            "32",
+        ],
+        dir,
+    )
+}
+
 /// `texel place` on the fixture mountain with `dir`'s species file, to `forest.instances`.
 pub fn place_on_mountain(dir: &Path, extra: &[&str]) -> Output {
-    let terrain = fixture("terrain/mountain.glb");
+    place_on("terrain/mountain.glb", dir, extra)
+}
+
+/// `texel place` on fixture `terrain` with `dir`'s species file, to `forest.instances`.
+pub fn place_on(terrain: &str, dir: &Path, extra: &[&str]) -> Output {
+    let terrain = fixture(terrain);
     let mut args = vec![
         "place",
         terrain.to_str().unwrap(),

@@ -152,25 +152,25 @@ fn georeference(
     options: &HeightmapOptions,
     notes: &mut Vec<String>,
 ) -> Result<Option<Placement>, HeightmapError> {
-    let bad = |tag: &str, e: tiff::TiffError| error(file, tag, e);
-    let scale = d
-        .find_tag(Tag::ModelPixelScaleTag)
-        .map_err(|e| bad("ModelPixelScaleTag (33550)", e))?
-        .map(|v| v.into_f64_vec())
-        .transpose()
-        .map_err(|e| bad("ModelPixelScaleTag (33550)", e))?;
-    let tiepoint = d
-        .find_tag(Tag::ModelTiepointTag)
-        .map_err(|e| bad("ModelTiepointTag (33922)", e))?
-        .map(|v| v.into_f64_vec())
-        .transpose()
-        .map_err(|e| bad("ModelTiepointTag (33922)", e))?;
-    let keys = d
-        .find_tag(Tag::GeoKeyDirectoryTag)
-        .map_err(|e| bad("GeoKeyDirectoryTag (34735)", e))?
+    // A tag's values, if present, converted; an unreadable one is refused by name.
+    let mut tag =
+        |t: Tag, name: &str| -> Result<Option<tiff::decoder::ifd::Value>, HeightmapError> {
+            d.find_tag(t).map_err(|e| error(file, name, e))
+        };
+    let f64s = |v: Option<tiff::decoder::ifd::Value>, name: &str| {
+        v.map(|v| v.into_f64_vec())
+            .transpose()
+            .map_err(|e| error(file, name, e))
+    };
+    const SCALE: &str = "ModelPixelScaleTag (33550)";
+    const TIEPOINT: &str = "ModelTiepointTag (33922)";
+    const KEYS: &str = "GeoKeyDirectoryTag (34735)";
+    let scale = f64s(tag(Tag::ModelPixelScaleTag, SCALE)?, SCALE)?;
+    let tiepoint = f64s(tag(Tag::ModelTiepointTag, TIEPOINT)?, TIEPOINT)?;
+    let keys = tag(Tag::GeoKeyDirectoryTag, KEYS)?
         .map(|v| v.into_u16_vec())
         .transpose()
-        .map_err(|e| bad("GeoKeyDirectoryTag (34735)", e))?
+        .map_err(|e| error(file, KEYS, e))?
         .map(|k| geokeys(&k))
         .unwrap_or_default();
     let key = |id: u16| keys.iter().find(|k| k.0 == id).map(|k| k.1);
