@@ -55,6 +55,8 @@ fn main() {
         "1920",
         "--height",
         "1080",
+        "--method",
+        "texel",
     ]);
     let figure = |before: &str| number_after(&err, before).unwrap_or(f64::NAN);
     println!(

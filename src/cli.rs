@@ -505,9 +505,10 @@ pub struct RenderArgs {
     pub spp: u32,
     /// What draws the trees: their 3D textures, the glTF models the textures were baked
     /// from (the conventional method; the ground truth at many samples per pixel), or each
-    /// tree whichever of the two its footprint needs.
-    #[arg(long, value_enum, default_value_t = MethodArg::Texel)]
-    pub method: MethodArg,
+    /// tree whichever of the two its footprint needs. Default: hybrid, or texel (with a
+    /// warning saying why) where a model the textures were baked from is missing or changed.
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
     /// Hybrid method: the pixel footprint at a tree, in its finest texture cells, at which it
     /// is drawn from its texture and its model with equal chance (smaller footprints: the
     /// model; larger: the texture).

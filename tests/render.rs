@@ -271,7 +271,8 @@ fn a_gltf_camera_node_and_directional_light_stand_in_for_the_flags() {
 }
 
 #[test]
-fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale_ones() {
+fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale_ones_the_default_falls_back_to_textures()
+ {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // The trees baked from copies of the fixtures, so that a model can be changed afterwards.
@@ -334,8 +335,52 @@ fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale
         ],
     );
     assert!(!d.join("stale.exr").exists());
-    // The texel method does not need the models.
-    assert!(render(d, &["-o", "texel.exr"]).status.success());
+    let o = render(d, &["--method", "hybrid", "-o", "stale.exr"]);
+    assert_error(&o, &["models/broadleaf.bin", "changed since it was baked"]);
+    assert!(!d.join("stale.exr").exists());
+    // The texel method does not need the models; the default (hybrid, while the models were
+    // good) draws the textures instead, and says why.
+    let o = render(d, &["--method", "texel", "-o", "texel.exr"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render(d, &["-o", "default.exr", "--depfile", "default.d"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    for needle in [
+        "warning",
+        "every tree drawn from its texture",
+        "models/broadleaf.bin",
+        "changed since it was baked",
+        "from their textures",
+    ] {
+        assert!(err.contains(needle), "{needle} missing from {err}");
+    }
+    assert_eq!(
+        std::fs::read(d.join("default.exr")).unwrap(),
+        std::fs::read(d.join("texel.exr")).unwrap()
+    );
+    // No model is a dependency of a render that drew none.
+    let dep = std::fs::read_to_string(d.join("default.d")).unwrap();
+    assert!(!dep.contains("models/"), "{dep}");
+}
+
+#[test]
+fn the_default_method_is_the_hybrid_where_the_models_are_there() {
+    let dir = small_forest();
+    let d = dir.path();
+    let o = render(d, &["-o", "default.exr"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("from their meshes and textures"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    let o = render(d, &["--method", "hybrid", "-o", "hybrid.exr"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(d.join("default.exr")).unwrap(),
+        std::fs::read(d.join("hybrid.exr")).unwrap()
+    );
 }
 
 #[test]

@@ -82,7 +82,7 @@ impl Report {
         let spp = BUDGET_SPP.to_string();
         let out = |tag: &str| format!("budget-{}-{tag}.exr", view.name);
         let texel = |tag: &str, extra: &[&str]| {
-            let mut flags = vec!["--spp", &spp, "--aov", "canopy"];
+            let mut flags = vec!["--method", "texel", "--spp", &spp, "--aov", "canopy"];
             flags.extend_from_slice(extra);
             self.render(forest, view, &flags, &out(tag));
             self.work.join(out(tag))

@@ -39,7 +39,7 @@ pub fn run(report: &Report, forest: &str, dir: &Path) -> (Vec<Flicker>, String) 
     for (method, extra) in [
         ("mesh 1 spp", &["--method", "mesh"][..]),
         ("mesh 16 spp", &["--method", "mesh", "--spp", "16"][..]),
-        ("texel 1 spp", &[][..]),
+        ("texel 1 spp", &["--method", "texel"][..]),
         ("hybrid 1 spp", &["--method", "hybrid"][..]),
         // Models only where a tree's footprint is under half a cell: fewer, less aliased.
         (

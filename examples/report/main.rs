@@ -304,12 +304,17 @@ impl Report {
             };
             for &spp in spps {
                 let s = spp.to_string();
-                let t = self.render(forest, view, &["--spp", &s], &out);
+                let t = self.render(forest, view, &["--method", "texel", "--spp", &s], &out);
                 record(&format!("texel {density} {resolution}"), "", spp, t);
             }
         }
         for (flag, value) in SETTINGS {
-            let t = self.render(default_forest, view, &[flag, value], &out);
+            let t = self.render(
+                default_forest,
+                view,
+                &["--method", "texel", flag, value],
+                &out,
+            );
             record("texel transmittance 32", &format!("{flag} {value}"), 1, t);
         }
         for spp in [1, 4, 16] {
@@ -339,7 +344,7 @@ impl Report {
     /// beside it, against a mesh reference.
     fn sweep(&self, forest: &str) -> Vec<SweepRow> {
         eprintln!("report: far-to-near sweep...");
-        self.render(forest, &VIEWS[0], &[], "camera.exr");
+        self.render(forest, &VIEWS[0], &["--method", "texel"], "camera.exr");
         let [far_eye, far_forward, ..] = camera_of(&self.work.join("camera.exr"));
         let near_eye = glam::DVec3::new(-110.0, 420.0, 190.0);
         let near_target = glam::DVec3::new(0.0, 330.0, 40.0);
@@ -398,15 +403,15 @@ impl Report {
     fn flicker(&self, default_forest: &str) -> Vec<(&'static str, f64)> {
         eprintln!("report: flicker...");
         let far = &VIEWS[0];
-        self.render(default_forest, far, &[], "camera.exr");
+        self.render(default_forest, far, &["--method", "texel"], "camera.exr");
         let camera = camera_of(&self.work.join("camera.exr"));
         let mut flicker = Vec::new();
         for (method, extra) in [
             ("mesh 1 spp", vec!["--method", "mesh"]),
             ("mesh 4 spp", vec!["--method", "mesh", "--spp", "4"]),
             ("mesh 16 spp", vec!["--method", "mesh", "--spp", "16"]),
-            ("texel 1 spp", vec![]),
-            ("texel 4 spp", vec!["--spp", "4"]),
+            ("texel 1 spp", vec!["--method", "texel"]),
+            ("texel 4 spp", vec!["--method", "texel", "--spp", "4"]),
         ] {
             let frames = self.jittered_frames(default_forest, camera, &extra);
             flicker.push((method, mean_deviation(&frames)));

@@ -11,7 +11,7 @@ use texel_forest::import;
 use texel_forest::limits::{Limits, check_memory};
 use texel_forest::output::{Outputs, depfile_for};
 use texel_forest::render::camera_path::CameraPath;
-use texel_forest::render::load::{self, LoadedScene, SceneRequest};
+use texel_forest::render::load::{self, LoadedScene, Meshes, SceneRequest};
 use texel_forest::render::{
     self, Aovs, Camera, Film, Lighting, Lod, March, MatteNames, Method, RenderSettings, Shading,
     ShadowRays, film,
@@ -57,14 +57,29 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     }
     let shots = shots(args, path.as_ref().map(|(p, _)| p))?;
     let mut planned = plan(args, limits, &shots)?;
-    let loaded = load::load(&SceneRequest {
+    let mut loaded = load::load(&SceneRequest {
         forest: &args.instances,
         terrain: args.terrain.as_deref(),
         heightmap: args.heightmap.options(),
         day: args.day,
-        meshes: args.method != MethodArg::Texel,
+        meshes: match args.method {
+            Some(MethodArg::Texel) => Meshes::Skip,
+            Some(MethodArg::Mesh | MethodArg::Hybrid) => Meshes::Require,
+            None => Meshes::Prefer,
+        },
         limits: *limits,
     })?;
+    let method = args.method.unwrap_or_else(|| match loaded.without_meshes.take() {
+        None => MethodArg::Hybrid,
+        Some(why) => {
+            super::warn(&format!(
+                "{}: every tree drawn from its texture (the hybrid method, the default, needs the models the textures were baked from): {:#}; --method texel asks for this without the warning",
+                args.instances.display(),
+                anyhow::Error::from(why)
+            ));
+            MethodArg::Texel
+        }
+    });
     let mut dependencies = loaded.dependencies.clone();
     planned.add_inputs(&dependencies)?;
     let views = match &args.camera_file {
@@ -132,7 +147,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         }
         let build = build_start.elapsed().as_secs_f64();
         scene.shadows = !args.no_shadows;
-        let mut settings = settings(args);
+        let mut settings = settings(args, method);
         if let Some(f) = shot.frame {
             // Each frame its own noise, and the same whichever frames render with it; the
             // hybrid's choice of drawing for each tree stays the sequence's.
@@ -174,7 +189,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
                 String::new()
             };
             summary(
-                args,
+                (args, method),
                 &scene,
                 &film,
                 &shot.exr,
@@ -343,9 +358,9 @@ fn warn_underground(scene: &LoadedScene, camera: &Camera) {
     }
 }
 
-fn settings(args: &RenderArgs) -> RenderSettings {
+fn settings(args: &RenderArgs, method: MethodArg) -> RenderSettings {
     RenderSettings {
-        method: match args.method {
+        method: match method {
             MethodArg::Texel => Method::Texel,
             MethodArg::Mesh => Method::Mesh,
             MethodArg::Hybrid => Method::Hybrid,
@@ -437,7 +452,7 @@ fn write(
 
 /// The run's summary line for one shot.
 fn summary(
-    args: &RenderArgs,
+    (args, method): (&RenderArgs, MethodArg),
     scene: &render::Scene,
     film: &Film,
     exr: &Path,
@@ -449,7 +464,7 @@ fn summary(
     let pixels = film.width as u64 * film.height as u64;
     let rays = pixels * u64::from(args.spp);
     let (samples, shadow_rays) = film.work();
-    let (drawn_from, work) = match args.method {
+    let (drawn_from, work) = match method {
         MethodArg::Texel => (
             "textures",
             format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),

@@ -32,9 +32,21 @@ pub struct SceneRequest<'a> {
     pub heightmap: HeightmapOptions,
     /// Day of the year: picks each species' foliage colour, leaf fraction and texture.
     pub day: f64,
-    /// Also load the tree models (for `Method::Mesh`).
-    pub meshes: bool,
+    /// Whether to load the tree models too (for `Method::Mesh` and `Method::Hybrid`).
+    pub meshes: Meshes,
     pub limits: Limits,
+}
+
+/// Whether a render loads the polygon models the textures were baked from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Meshes {
+    /// Textures only (`--method texel`).
+    Skip,
+    /// The models or an error (`--method mesh`, `--method hybrid`).
+    Require,
+    /// The models where every one can be loaded, else none, and why not
+    /// ([`LoadedScene::without_meshes`]): the default method draws what there is.
+    Prefer,
 }
 
 /// Everything a render reads, loaded and checked.
@@ -47,6 +59,8 @@ pub struct LoadedScene {
     pub terrain: Model,
     /// One per texel where asked for.
     pub meshes: Option<Vec<TreeMesh>>,
+    /// With [`Meshes::Prefer`], why the models were not loaded (one missing or changed).
+    pub without_meshes: Option<LoadError>,
     /// Every file read, the forest first.
     pub dependencies: Vec<PathBuf>,
 }
@@ -112,15 +126,29 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
         .collect::<Result<Vec<_>, _>>()?;
     check_heights(path, &forest, &looks, &textures.texels)?;
     dependencies.extend(textures.paths.iter().cloned());
-    let meshes = if request.meshes {
-        Some(tree_meshes(
+    let models = |dependencies: &mut Vec<PathBuf>| {
+        tree_meshes(
             &textures.texels,
             &textures.paths,
             &request.limits,
-            &mut dependencies,
-        )?)
-    } else {
-        None
+            dependencies,
+        )
+    };
+    let (meshes, without_meshes) = match request.meshes {
+        Meshes::Skip => (None, None),
+        Meshes::Require => (Some(models(&mut dependencies)?), None),
+        // All or none: the files of a model that loaded before one that failed are no
+        // dependency of a render that draws no model.
+        Meshes::Prefer => {
+            let mut files = Vec::new();
+            match models(&mut files) {
+                Ok(m) => {
+                    dependencies.extend(files);
+                    (Some(m), None)
+                }
+                Err(e) => (None, Some(e)),
+            }
+        }
     };
     let placed = forest.instances.iter().map(Placed::of).collect();
     Ok(LoadedScene {
@@ -130,6 +158,7 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
         placed,
         terrain,
         meshes,
+        without_meshes,
         dependencies,
     })
 }
@@ -271,7 +300,7 @@ fn tree_meshes(
             return Err(LoadError::Mismatch {
                 file: path.clone(),
                 message: format!(
-                    "records no source model (made by {:?}); --method mesh needs the glTF it was baked from",
+                    "records no source model (made by {:?}); drawing its trees as meshes needs the glTF it was baked from",
                     t.info.generator
                 ),
             });
