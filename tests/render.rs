@@ -361,6 +361,20 @@ fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale
     // No model is a dependency of a render that drew none.
     let dep = std::fs::read_to_string(d.join("default.d")).unwrap();
     assert!(!dep.contains("models/"), "{dep}");
+    // The forest and its textures copied without the models, as to another machine.
+    std::fs::remove_dir_all(d.join("models")).unwrap();
+    let o = render(d, &["-o", "moved.exr"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("every tree drawn from its texture"), "{err}");
+    assert!(
+        err.contains("cannot read trees/../models/broadleaf.gltf"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read(d.join("moved.exr")).unwrap(),
+        std::fs::read(d.join("texel.exr")).unwrap()
+    );
 }
 
 #[test]
