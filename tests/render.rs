@@ -368,7 +368,8 @@ fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale
     let err = stderr(&o);
     assert!(err.contains("every tree drawn from its texture"), "{err}");
     assert!(
-        err.contains("cannot read trees/../models/broadleaf.gltf"),
+        err.contains("cannot read trees/../models/broadleaf.gltf")
+            && err.contains("put it back where it was recorded, or re-run texel bake"),
         "{err}"
     );
     assert_eq!(

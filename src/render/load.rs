@@ -94,9 +94,9 @@ const PLACED: &str = "the forest was placed";
 #[error("{}", .0.display())]
 struct Named(PathBuf, #[source] Box<dyn std::error::Error + Send + Sync>);
 
-/// A recorded source that changed, with what to do about it.
+/// A recorded source that changed or is gone, with what to do about it.
 #[derive(Debug, thiserror::Error)]
-#[error("{change}; {advice}")]
+#[error("{change}; {}{advice}", if matches!(change, ProvenanceError::Unreadable(_)) { "put it back where it was recorded, or " } else { "" })]
 struct Stale {
     change: ProvenanceError,
     advice: &'static str,
