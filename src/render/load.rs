@@ -96,10 +96,18 @@ struct Named(PathBuf, #[source] Box<dyn std::error::Error + Send + Sync>);
 
 /// A recorded source that changed or is gone, with what to do about it.
 #[derive(Debug, thiserror::Error)]
-#[error("{change}; {}{advice}", if matches!(change, ProvenanceError::Unreadable(_)) { "put it back where it was recorded, or " } else { "" })]
+#[error("{change}; {}{advice}", restore_first(.change))]
 struct Stale {
     change: ProvenanceError,
     advice: &'static str,
+}
+
+/// A file that is gone may only have been left behind: bringing it back is the first remedy.
+fn restore_first(change: &ProvenanceError) -> &'static str {
+    match change {
+        ProvenanceError::Unreadable(_) => "put it back where it was recorded, or ",
+        ProvenanceError::Changed { .. } => "",
+    }
 }
 
 fn stale(file: &Path, change: ProvenanceError, advice: &'static str) -> LoadError {
