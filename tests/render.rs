@@ -354,10 +354,7 @@ fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale
     ] {
         assert!(err.contains(needle), "{needle} missing from {err}");
     }
-    assert_eq!(
-        std::fs::read(d.join("default.exr")).unwrap(),
-        std::fs::read(d.join("texel.exr")).unwrap()
-    );
+    assert_same_bytes(d, "default.exr", "texel.exr");
     // No model is a dependency of a render that drew none.
     let dep = std::fs::read_to_string(d.join("default.d")).unwrap();
     assert!(!dep.contains("models/"), "{dep}");
@@ -372,10 +369,13 @@ fn the_mesh_method_draws_the_models_the_texels_were_baked_from_and_refuses_stale
             && err.contains("put it back where it was recorded, or re-run texel bake"),
         "{err}"
     );
-    assert_eq!(
-        std::fs::read(d.join("moved.exr")).unwrap(),
-        std::fs::read(d.join("texel.exr")).unwrap()
-    );
+    assert_same_bytes(d, "moved.exr", "texel.exr");
+}
+
+/// Two renders in `dir` wrote the same bytes.
+fn assert_same_bytes(dir: &Path, a: &str, b: &str) {
+    let read = |f: &str| std::fs::read(dir.join(f)).unwrap();
+    assert!(read(a) == read(b), "{a} and {b} differ");
 }
 
 #[test]
@@ -383,19 +383,13 @@ fn the_default_method_is_the_hybrid_where_the_models_are_there() {
     let dir = small_forest();
     let d = dir.path();
     let o = render(d, &["-o", "default.exr"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("from their meshes and textures"),
-        "{}",
-        stderr(&o)
-    );
-    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("from their meshes and textures"), "{err}");
+    assert!(!err.contains("warning"), "{err}");
     let o = render(d, &["--method", "hybrid", "-o", "hybrid.exr"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(
-        std::fs::read(d.join("default.exr")).unwrap(),
-        std::fs::read(d.join("hybrid.exr")).unwrap()
-    );
+    assert_same_bytes(d, "default.exr", "hybrid.exr");
 }
 
 #[test]

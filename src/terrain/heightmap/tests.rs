@@ -22,6 +22,11 @@ fn load_file(path: &Path, options: &HeightmapOptions) -> Result<Model, Heightmap
     load(path, format, options, &Limits::default())
 }
 
+/// The message `load_file` refuses `path` with.
+fn refusal(path: &Path, options: &HeightmapOptions) -> String {
+    load_file(path, options).unwrap_err().to_string()
+}
+
 /// The vertex of sample (col, row) of a `width`-wide grid.
 fn at(model: &Model, width: usize, col: usize, row: usize) -> Vec3 {
     model.mesh.positions[col + width * row]
@@ -115,18 +120,14 @@ fn exr_heights_are_metres_from_y_then_r() {
     let m = load_file(&path, &opts(Some([2.0, 4.0]), None)).unwrap();
     assert_close(at(&m, 3, 2, 1), Vec3::new(2.0, 1001.25, 4.0));
     // A range would rescale metres: refused, naming the flag.
-    let e = load_file(&path, &opts(Some([2.0, 4.0]), Some([0.0, 1.0])))
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&path, &opts(Some([2.0, 4.0]), Some([0.0, 1.0])));
     assert!(e.contains("r.exr") && e.contains("--height-range"), "{e}");
     // NaN (a no-data sample) is refused, naming the pixel.
     let mut nan = vec![5.0; 6];
     nan[4] = f32::NAN;
     let path = dir.path().join("nan.exr");
     exr(&path, 3, 2, &[("Y", nan)]);
-    let e = load_file(&path, &opts(Some([2.0, 4.0]), None))
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&path, &opts(Some([2.0, 4.0]), None));
     assert!(
         e.contains("nan.exr") && e.contains("column 1, row 1"),
         "{e}"
@@ -227,9 +228,7 @@ fn geotiff_no_data_samples_are_refused_by_pixel() {
     let size = opts(Some([30.0, 20.0]), None);
     load_file(&write("whole.tif", &heights), &size).unwrap();
     heights[6] = -9999.0;
-    let e = load_file(&write("hole.tif", &heights), &size)
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&write("hole.tif", &heights), &size);
     for needle in ["hole.tif", "column 2, row 1", "GDAL_NODATA", "-9999"] {
         assert!(e.contains(needle), "{needle} missing from {e}");
     }
@@ -240,9 +239,7 @@ fn tiff_integers_scale_by_the_range_or_are_metres_when_signed() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("u16.tif");
     geotiff::<colortype::Gray16>(&path, (4, 3), &values16(), None, None, &[]);
-    let e = load_file(&path, &HeightmapOptions::default())
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&path, &HeightmapOptions::default());
     assert!(e.contains("u16.tif") && e.contains("--height-range"), "{e}");
     let m = load_file(&path, &opts(Some([3.0, 2.0]), Some([0.0, 65535.0]))).unwrap();
     assert_close(at(&m, 4, 2, 1), Vec3::new(2.0, 30000.0, 1.0));
@@ -266,9 +263,7 @@ fn geotiff_in_feet_or_degrees_is_refused_unless_the_size_is_given() {
         None,
         &[(1024, 1), (3076, 9002)],
     );
-    let e = load_file(&feet, &HeightmapOptions::default())
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&feet, &HeightmapOptions::default());
     assert!(
         e.contains("feet.tif") && e.contains("ProjLinearUnitsGeoKey (3076)") && e.contains("9002"),
         "{e}"
@@ -289,9 +284,7 @@ fn geotiff_in_feet_or_degrees_is_refused_unless_the_size_is_given() {
         None,
         &[(1024, 2)],
     );
-    let e = load_file(&degrees, &HeightmapOptions::default())
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&degrees, &HeightmapOptions::default());
     assert!(
         e.contains("wgs84.tif") && e.contains("GTModelTypeGeoKey (1024)") && e.contains("degrees"),
         "{e}"
@@ -299,9 +292,7 @@ fn geotiff_in_feet_or_degrees_is_refused_unless_the_size_is_given() {
     // A plain TIFF without tags or size: the flag is named.
     let plain = dir.path().join("plain.tif");
     geotiff::<colortype::Gray32Float>(&plain, (2, 2), &heights, None, None, &[]);
-    let e = load_file(&plain, &HeightmapOptions::default())
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&plain, &HeightmapOptions::default());
     assert!(e.contains("--terrain-size"), "{e}");
 }
 
@@ -314,17 +305,13 @@ fn r16_is_square_little_endian() {
     let m = load_file(&path, &opts(Some([8.0, 8.0]), Some([0.0, 65.535]))).unwrap();
     assert_close(at(&m, 3, 2, 1), Vec3::new(8.0, 5.0, 4.0));
     std::fs::write(&path, &bytes[..16]).unwrap();
-    let e = load_file(&path, &opts(Some([8.0, 8.0]), Some([0.0, 1.0])))
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&path, &opts(Some([8.0, 8.0]), Some([0.0, 1.0])));
     assert!(
         e.contains("h.r16") && e.contains("16 bytes is not a square"),
         "{e}"
     );
     std::fs::write(&path, b"").unwrap();
-    let e = load_file(&path, &opts(Some([8.0, 8.0]), Some([0.0, 1.0])))
-        .unwrap_err()
-        .to_string();
+    let e = refusal(&path, &opts(Some([8.0, 8.0]), Some([0.0, 1.0])));
     assert!(e.contains("0x0 pixels"), "{e}");
 }
 
@@ -332,33 +319,32 @@ fn r16_is_square_little_endian() {
 fn bad_images_and_flags_are_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let good = opts(Some([1.0, 1.0]), Some([0.0, 1.0]));
-    let error_of = |p: &Path, o: &HeightmapOptions| load_file(p, o).unwrap_err().to_string();
     // One pixel wide: no surface.
     let thin = png16(dir.path(), "thin.png", 1, 3, &[1, 2, 3]);
-    let e = error_of(&thin, &good);
+    let e = refusal(&thin, &good);
     assert!(e.contains("thin.png") && e.contains("1x3 pixels"), "{e}");
     // Colour.
     let rgb = dir.path().join("rgb.png");
     image::RgbImage::new(2, 2).save(&rgb).unwrap();
-    let e = error_of(&rgb, &good);
+    let e = refusal(&rgb, &good);
     assert!(e.contains("rgb.png") && e.contains("3 channel"), "{e}");
     // No size for a plain image.
     let path = png16(dir.path(), "h.png", 4, 3, &values16());
-    let e = error_of(&path, &opts(None, Some([0.0, 1.0])));
+    let e = refusal(&path, &opts(None, Some([0.0, 1.0])));
     assert!(e.contains("h.png") && e.contains("--terrain-size"), "{e}");
     // LO >= HI, zero or non-finite sizes.
-    let e = error_of(&path, &opts(Some([1.0, 1.0]), Some([5.0, 5.0])));
+    let e = refusal(&path, &opts(Some([1.0, 1.0]), Some([5.0, 5.0])));
     assert!(e.contains("--height-range") && e.contains("LO < HI"), "{e}");
-    let e = error_of(&path, &opts(Some([0.0, 1.0]), Some([0.0, 1.0])));
+    let e = refusal(&path, &opts(Some([0.0, 1.0]), Some([0.0, 1.0])));
     assert!(e.contains("--terrain-size"), "{e}");
-    let e = error_of(&path, &opts(Some([f64::NAN, 1.0]), Some([0.0, 1.0])));
+    let e = refusal(&path, &opts(Some([f64::NAN, 1.0]), Some([0.0, 1.0])));
     assert!(e.contains("--terrain-size"), "{e}");
     // Truncated.
     let bytes = std::fs::read(&path).unwrap();
     let cut = dir.path().join("cut.png");
     for n in [8, 30, bytes.len() / 2, bytes.len() - 5] {
         std::fs::write(&cut, &bytes[..n]).unwrap();
-        let e = error_of(&cut, &good);
+        let e = refusal(&cut, &good);
         assert!(e.contains("cut.png"), "{e}");
     }
     let exr_path = dir.path().join("h.exr");
@@ -366,7 +352,7 @@ fn bad_images_and_flags_are_refused_by_name() {
     let bytes = std::fs::read(&exr_path).unwrap();
     for n in [4, 20, bytes.len() / 2, bytes.len() - 3] {
         std::fs::write(&exr_path, &bytes[..n]).unwrap();
-        let e = error_of(&exr_path, &opts(Some([1.0, 1.0]), None));
+        let e = refusal(&exr_path, &opts(Some([1.0, 1.0]), None));
         assert!(e.contains("h.exr"), "{e}");
     }
     let tif = dir.path().join("h.tif");
@@ -374,7 +360,7 @@ fn bad_images_and_flags_are_refused_by_name() {
     let bytes = std::fs::read(&tif).unwrap();
     for n in [4, 20, bytes.len() / 2, bytes.len() - 3] {
         std::fs::write(&tif, &bytes[..n]).unwrap();
-        let e = error_of(&tif, &good);
+        let e = refusal(&tif, &good);
         assert!(e.contains("h.tif"), "{e}");
     }
 }
