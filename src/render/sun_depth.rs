@@ -48,6 +48,11 @@ const MEMORY_BOUND: usize = 512 << 20;
 /// bytes (the fixtures' grids average 115 KiB).
 const GRID_BYTES: usize = 128 << 10;
 
+/// The deepest optical depth a grid keeps; deeper ones (a texture with an extinction scale
+/// near f32's range sums to infinity) are kept as this. exp(-DEEPEST) is 0 in f32: such a tree
+/// stops the light whatever else the ray crosses, and the grid's unit stays finite.
+const DEEPEST: f32 = 1e4;
+
 /// The depth grids of every look, level and turn, built as shadow rays first reach them.
 pub struct SunDepth {
     /// Per caster, level and turn (`(caster * levels + level) * TURNS + turn`), its grid.
@@ -196,9 +201,9 @@ pub(super) struct Grid {
     lo: [f32; 2],
     /// Columns across `a` and `b`, and layers.
     dims: [usize; 3],
-    /// The depths in units of `unit`: 16 bits (a 65,535th of the grid's deepest column; an
-    /// optical depth of 5 to within 0.01%) halve the bytes a lookup pulls through the cache,
-    /// which is what a lookup costs.
+    /// The depths in units of `unit`, a 65,535th of the grid's deepest (at most
+    /// [`DEEPEST`]): 16 bits halve the bytes a lookup pulls through the cache, which is what
+    /// a lookup costs, and are exact to half a unit.
     depth: Box<[u16]>,
     unit: f32,
 }
@@ -213,7 +218,8 @@ impl Grid {
     /// reads it: bilinear within the layer, 0 outside the grid); the sunward layer adds half a
     /// layer of its own, the distance to the grid's face.
     pub(super) fn new(level: &Level, origin: Vec3, scale: f32, foliage: f32, sun: Vec3) -> Grid {
-        let sigma_scale = scale * level.directional_factor(sun);
+        // Finite, so that an empty cell's extinction is 0 even for a scale beyond f32's range.
+        let sigma_scale = (scale * level.directional_factor(sun)).min(f32::MAX);
         let n = level.dims;
         let fine = fineness(n);
         let k = (0..3)
@@ -279,6 +285,7 @@ impl Grid {
             sweep(j as f32 + 0.5, j, weight);
         }
         sweep(face, dims[2], [0.25, 0.25]);
+        let depth: Vec<f32> = depth.into_iter().map(|d| d.min(DEEPEST)).collect();
         let deepest = depth.iter().copied().fold(0.0f32, f32::max);
         let unit = if deepest > 0.0 {
             deepest / f32::from(u16::MAX)
@@ -406,7 +413,9 @@ impl<'l> Slice<'l> {
         for ib in 0..n[b] {
             for ia in 0..n[a] {
                 let e = extinction(ia, ib, k0) * (1.0 - fk) + extinction(ia, ib, k1) * fk;
-                self.values[ia + n[a] * ib] = self.scale * e;
+                // Finite (with a finite scale), or an interpolation's weight of 0 on an
+                // infinite value would make a NaN.
+                self.values[ia + n[a] * ib] = (self.scale * e).min(f32::MAX);
             }
         }
     }
@@ -623,6 +632,24 @@ mod tests {
             );
             assert!(c == 0 || planned_bytes(casters, 6, c - 1) > MEMORY_BOUND);
         }
+    }
+
+    /// A texture whose extinction overflows f32 (a valid file's scale may be up to f64's):
+    /// its grid is opaque in the dense cell's shadow and 0 elsewhere, with no NaN (infinity
+    /// times an empty cell) and a finite unit.
+    #[test]
+    fn an_extinction_beyond_f32_shadows_opaquely_and_only_its_column() {
+        let mut level = Level::empty([32, 32, 32], 1.0);
+        let i = level.index(8, 4, 8);
+        level.density[1][i] = 5.0;
+        let grid = Grid::new(&level, Vec3::ZERO, f32::INFINITY, 1.0, Vec3::Y);
+        assert!(grid.unit.is_finite());
+        for y in 0..4 {
+            let below = grid.depth_from(Vec3::new(8.5, y as f32 + 0.5, 8.5));
+            assert!(below.is_finite() && (-below).exp() == 0.0, "y {y}: {below}");
+            assert_eq!(grid.depth_from(Vec3::new(7.5, y as f32 + 0.5, 8.5)), 0.0);
+        }
+        assert_eq!(grid.depth_from(Vec3::new(8.5, 20.5, 8.5)), 0.0);
     }
 
     /// A layer's slice is the level's trilinear field in that plane, as a march reads it:
