@@ -285,8 +285,7 @@ impl Grid {
             sweep(j as f32 + 0.5, j, weight);
         }
         sweep(face, dims[2], [0.25, 0.25]);
-        let depth: Vec<f32> = depth.into_iter().map(|d| d.min(DEEPEST)).collect();
-        let deepest = depth.iter().copied().fold(0.0f32, f32::max);
+        let deepest = depth.iter().fold(0.0f32, |m, &d| m.max(d.min(DEEPEST)));
         let unit = if deepest > 0.0 {
             deepest / f32::from(u16::MAX)
         } else {
@@ -305,7 +304,10 @@ impl Grid {
             shift,
             lo,
             dims,
-            depth: depth.iter().map(|&d| (d / unit + 0.5) as u16).collect(),
+            depth: depth
+                .iter()
+                .map(|&d| (d.min(DEEPEST) / unit + 0.5) as u16)
+                .collect(),
             unit,
         }
     }
