@@ -378,8 +378,8 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
         let level = &scene.texels[look.texel].levels[a.level];
         let f = level.fetch(c);
         let (wood, foliage) = (
-            a.sigma_scale * f.density[0],
-            a.sigma_scale * look.foliage * f.density[1],
+            a.extinction(f.density[0]),
+            a.extinction(look.foliage * f.density[1]),
         );
         let s = wood + foliage;
         if s <= 0.0 {
@@ -417,7 +417,7 @@ fn leaf_moment(scene: &Scene, active: &[Active], ts: f32) -> [f32; 6] {
         let Some((density, leaves)) = level.foliage_leaves(a.c0 + a.dc * ts) else {
             continue;
         };
-        let foliage = a.sigma_scale * look.foliage * density;
+        let foliage = a.extinction(look.foliage * density);
         // The moment turns with the instance: M' = R M R^T, R a turn about +Y.
         for (s, v) in sum.iter_mut().zip(turn_moment(leaves, inst.cos, inst.sin)) {
             *s += v * foliage;

@@ -8,7 +8,7 @@ use super::lod::Draw;
 use super::mesh;
 use super::scene::Scene;
 use super::shading::sun_radiance;
-use super::walk::{Active, March, ShadowRays, level_for};
+use super::walk::{Active, March, SIGMA_MAX, ShadowRays, level_for};
 use crate::geom::Ray;
 use crate::rng::{self, purpose};
 
@@ -102,7 +102,7 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                 Some(o) => (Active::at_level(scene, i, local, exit, o.level), o.factor),
                 None => (Active::new(scene, i, local, exit, footprint, lod_bias), 1.0),
             };
-            let sigma_scale = a.sigma_scale * factor;
+            let sigma_scale = (a.sigma_scale * factor).min(SIGMA_MAX);
             let look = &scene.looks[scene.instances.get(i).look as usize];
             let level = &scene.texels[look.texel].levels[a.level];
             let occupancy = &scene.occupancy[look.texel][a.level];
@@ -136,7 +136,7 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                 };
                 let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
                 let d = occupancy.stencils.density_at(level, a.c0 + a.dc * ts);
-                depth += sigma_scale * (d[0] + foliage * d[1]) * (end - t);
+                depth += (sigma_scale * (d[0] + foliage * d[1])).min(SIGMA_MAX) * (end - t);
                 if depth > opaque {
                     // Stops the traversal: nothing further can make the light visible.
                     return Some(0.0);

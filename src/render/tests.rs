@@ -621,6 +621,68 @@ fn hard_cases_stay_finite_and_bounded() {
     }
 }
 
+/// One dense cell in an empty 8³ box over a lit ground, its density `density` and the
+/// texture's extinction scale `scale`, rendered at 16 x 16 with sun shadows `shadows`.
+fn one_dense_cell(density: f32, scale: f64, shadows: ShadowRays) -> super::Film {
+    let mut l = Level::empty([8, 8, 8], 0.25);
+    let i = l.index(4, 4, 4);
+    l.density[1][i] = density;
+    l.albedo[1][i] = [0.3, 0.6, 0.2];
+    l.gradient[1] = sobel::gradient(&l.density[1], l.dims, 0.25);
+    let mut t = uniform_texel([8, 8, 8], 0.25, DVec3::new(-1.0, 0.0, -1.0), 0.0, [0.5; 3]);
+    t.levels = mip_chain(l, scale);
+    t.info.extinction_scale = scale;
+    let scene = Scene::new(
+        DVec3::new(0.3, 1.0, 6.0),
+        vec![t],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        Some(ground(0.0, 20.0, 0.3)),
+        Lighting {
+            sun: Sun::from_angles(30.0, 40.0, std::f32::consts::PI),
+            shading: Shading::default(),
+            sky: None,
+        },
+    );
+    let camera = Camera::look_at(scene.origin, DVec3::new(0.0, 1.0, 0.0), 30.0, 16, 16).unwrap();
+    let settings = RenderSettings {
+        spp: 4,
+        // The finest level alone: a coarse cell of a scale beyond f32's range, one dense child
+        // in eight, has a density below f32's smallest.
+        march: March {
+            shadows,
+            shadow_lod: 0.0,
+            ..March::default()
+        },
+        ..RenderSettings::default()
+    };
+    render(&scene, &camera, &settings, &|_| {})
+}
+
+#[test]
+fn extinction_beyond_f32_renders_as_an_opaque_one_does() {
+    // A valid file's extinction scale may lie beyond f32's range, and its densities anywhere
+    // in f32's: both are opaque, and must draw as a merely huge extinction (1e30 per metre
+    // for a cell 0.25 m wide) does, not black where infinity met a zero weight.
+    for shadows in [ShadowRays::Cached, ShadowRays::Exact] {
+        let opaque = one_dense_cell(1.0, 1e30, shadows);
+        assert!(
+            opaque.rgba.iter().any(|p| p[3] > 0.5),
+            "{shadows:?}: the cell is seen"
+        );
+        for (density, scale) in [(1.0, 1e300), (f32::MAX, 1.0), (f32::MAX, 1e300)] {
+            let f = one_dense_cell(density, scale, shadows);
+            for (k, (p, q)) in f.rgba.iter().zip(&opaque.rgba).enumerate() {
+                assert!(
+                    p.iter().zip(q).all(|(a, b)| (a - b).abs() <= 0.02),
+                    "{shadows:?}, density {density:e}, scale {scale:e}, pixel {k}: \
+                     {p:?} where 1e30 per metre gives {q:?}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn ten_thousand_boxes_overlapping_one_point_add_up() {
     // 10,000 faint copies of one box on the same spot: together they are one box of 10,000

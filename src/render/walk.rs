@@ -85,7 +85,7 @@ pub(super) struct Active {
     /// Cell coordinates at t = 0 and per unit t.
     pub(super) c0: Vec3,
     pub(super) dc: Vec3,
-    /// Extinction per density, 1/m of the renderer's frame.
+    /// Extinction per density, 1/m of the renderer's frame, at most [`SIGMA_MAX`].
     pub(super) sigma_scale: f32,
     /// Segment length in this texture (m).
     pub(super) step: f32,
@@ -94,7 +94,20 @@ pub(super) struct Active {
     pub(super) span: (bool, f32),
 }
 
+/// The largest extinction (1/m) the renderer holds. A file may ask for more (its scale is
+/// f64, its densities reach f32's limit) and all of it is opaque over any step the renderer
+/// takes (a nanometre has an optical depth of 1e9), so more is kept as this much: sums over
+/// overlapping boxes and products with albedos stay finite, and a zero weight on it stays 0
+/// where infinity would make NaN and the film would draw the pixel black.
+pub(super) const SIGMA_MAX: f32 = 1e18;
+
 impl Active {
+    /// The extinction (1/m) of `density` in this texture, at most [`SIGMA_MAX`] (a density of
+    /// 0 is 0).
+    pub(super) fn extinction(&self, density: f32) -> f32 {
+        (self.sigma_scale * density).min(SIGMA_MAX)
+    }
+
     /// Instance `i` as a ray meets it (`local`: the ray in its model space, leaving at `exit`),
     /// where the ray's footprint is `footprint` metres: the mip level whose cells match it, and
     /// the ray in that level's cells.
@@ -132,7 +145,12 @@ impl Active {
             level,
             c0: (local.origin - origin) / cell,
             dc: dir / cell,
-            sigma_scale: texel.info.extinction_scale as f32 * directional / inst.scale,
+            // A valid file's scale may lie beyond f32's range: capped first, it stays finite
+            // through the factor (at most 4096 or so) and the instance's scale (2^-16 or more).
+            sigma_scale: (texel.info.extinction_scale.min(f64::from(SIGMA_MAX)) as f32
+                * directional
+                / inst.scale)
+                .min(SIGMA_MAX),
             step: cell * inst.scale,
             span: (true, f32::NEG_INFINITY),
         }
