@@ -341,13 +341,18 @@ pub fn map(f: &Forest, terrain: Option<&Terrain>, long_side: usize) -> RgbImage 
             (p.position[2] - r[1]) / pixel,
         );
         let col = color(p.species as usize);
-        let reach = radius.ceil() as i64;
-        for dy in -reach..=reach {
-            for dx in -reach..=reach {
-                let (px, py) = (cx.floor() as i64 + dx, cz.floor() as i64 + dy);
-                if px < 0 || py < 0 || px >= w as i64 || py >= h as i64 {
-                    continue;
-                }
+        // The pixels the disc can cover (centres within radius + 0.5), and only those in the
+        // map: a valid file's disc may be far larger than the map, even infinite.
+        let span = |c: f64, n: usize| {
+            let lo = (c - radius - 1.0).floor().max(0.0);
+            let hi = (c + radius + 1.0).ceil().min(n as f64 - 1.0);
+            (lo <= hi).then_some(lo as usize..=hi as usize)
+        };
+        let (Some(xs), Some(ys)) = (span(cx, w), span(cz, h)) else {
+            continue;
+        };
+        for py in ys {
+            for px in xs.clone() {
                 let d = ((px as f64 + 0.5 - cx).powi(2) + (py as f64 + 0.5 - cz).powi(2)).sqrt();
                 // Antialiased edge: coverage falls off over one pixel.
                 let a = (radius + 0.5 - d).clamp(0.0, 1.0) as f32 * 0.9;
@@ -361,4 +366,33 @@ pub fn map(f: &Forest, terrain: Option<&Terrain>, long_side: usize) -> RgbImage 
         }
     }
     img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::instances::tests::sample_forest;
+
+    #[test]
+    fn a_tree_larger_than_the_map_covers_it_without_visiting_pixels_outside() {
+        // Any positive finite spacing is valid: a tree's disc may be infinite, and the map
+        // visits the pixels of its disc (this test never finished when it visited them all).
+        let mut f = sample_forest(1);
+        f.info.species[0].spacing = 1e300;
+        let img = map(&f, None, 64);
+        let tree = color(0);
+        let grey = map(&sample_forest(0), None, 64).get_pixel(0, 0).0;
+        for p in img.pixels() {
+            for c in 0..3 {
+                let blend = grey[c] as f32 * 0.1 + tree[c] as f32 * 0.9;
+                assert!((p.0[c] as f32 - blend).abs() <= 1.0, "{p:?}");
+            }
+        }
+        // A disc of ordinary size still draws as before: its centre pixel in the tree's
+        // colour, the far corner grey.
+        let f = sample_forest(1);
+        let img = map(&f, None, 64);
+        assert_eq!(img.get_pixel(63, 63).0, grey);
+        assert_ne!(img.get_pixel(0, 0).0, grey);
+    }
 }
