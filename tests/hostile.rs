@@ -405,6 +405,9 @@ fn absurd_sizes_and_values_are_refused_up_front() {
     usage_error(&render(&["--sky", "1e39,0,0"]), "--sky");
     usage_error(&render(&["--eye", "0,0,inf", "--target", "1,1,1"]), "--eye");
     usage_error(&render(&["--fov", "180"]), "--fov");
+    // A march's work grows as 1 / step: 1e-30 would never finish (1e-50 is 0 as f32).
+    usage_error(&render(&["--step", "1e-30"]), "--step");
+    usage_error(&render(&["--step", "1e-50"]), "--step");
     usage_error(
         &run(
             &["compare", "a.exr", "b.exr", "--fail-above", "NaN"],
