@@ -386,6 +386,37 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
         dir.path(),
     );
     assert_error(&o, &["flat.gltf", "no triangles"]);
+    // A wall: one triangle standing in the x-y plane, no ground seen from above (it was
+    // reported as a zero --cell, a flag never given).
+    let wall = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scenes": [{ "nodes": [0] }], "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "min": [0, 0, 0], "max": [10, 10, 0] }],
+        "bufferViews": [{ "buffer": 0, "byteLength": 36 }],
+        "buffers": [{ "byteLength": 36, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAAAgQQAAAAAAAAAAAAAAAAAAIEEAAAAA" }]
+    });
+    std::fs::write(
+        dir.path().join("wall.gltf"),
+        serde_json::to_vec(&wall).unwrap(),
+    )
+    .unwrap();
+    for args in [
+        &[
+            "place",
+            "wall.gltf",
+            "--species",
+            "species.json",
+            "-o",
+            "x.instances",
+        ][..],
+        &["inspect", "wall.gltf"][..],
+    ] {
+        let o = run(args, dir.path());
+        assert_error(&o, &["wall.gltf", "no ground seen from above"]);
+        assert!(!stderr(&o).contains("--cell"), "{}", stderr(&o));
+    }
     assert!(
         !dir.path().join("forest.instances").exists() && !dir.path().join("x.instances").exists()
     );

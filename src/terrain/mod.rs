@@ -52,9 +52,23 @@ impl Terrain {
         limits: &Limits,
     ) -> Result<Terrain, TerrainError> {
         let (model, heightmap) = load_model(path, options, "to place trees on", limits)?;
+        let terrain = Terrain::from_model(model);
+        // A wall, a line or a point: no raster cell of ground to judge or stand a tree on.
+        let (lo, hi) = (terrain.lo, terrain.hi);
+        if !(hi.x - lo.x > 0.0 && hi.z - lo.z > 0.0) {
+            return Err(TerrainError::Invalid(format!(
+                "{}: the terrain covers no ground seen from above (x {} to {}, z {} to {} m); \
+                 trees need ground that spans both x and z (+Y is up)",
+                path.display(),
+                lo.x,
+                hi.x,
+                lo.z,
+                hi.z
+            )));
+        }
         Ok(Terrain {
             heightmap,
-            ..Terrain::from_model(model)
+            ..terrain
         })
     }
 
