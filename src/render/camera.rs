@@ -28,7 +28,15 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Camera, String> {
-        let forward = (target - eye).normalize_or_zero();
+        // Scaled to its largest component first: the length of a difference beyond 1e154
+        // overflows f64, and the direction would read as none.
+        let d = target - eye;
+        if !d.is_finite() {
+            return Err(format!(
+                "the camera's eye {eye} and target {target} are too far apart to look along"
+            ));
+        }
+        let forward = (d / d.abs().max_element()).normalize_or_zero();
         if forward == DVec3::ZERO || !forward.is_finite() {
             return Err("the camera's eye and target coincide".into());
         }
@@ -231,6 +239,16 @@ mod tests {
             c.direction(0.0, 50.0).x < 0.0,
             "left of the image is -x when looking down -z"
         );
+    }
+
+    #[test]
+    fn a_target_far_beyond_a_squared_lengths_range_still_gives_the_direction() {
+        let c = Camera::look_at(DVec3::ZERO, DVec3::new(1e300, 0.0, 1e300), 40.0, 4, 4).unwrap();
+        assert!((c.forward - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-12);
+        let e = DVec3::splat(1e300);
+        assert!(Camera::look_at(e, e, 40.0, 4, 4).unwrap_err().contains("coincide"));
+        let far = Camera::look_at(-e, DVec3::splat(f64::MAX), 40.0, 4, 4).unwrap_err();
+        assert!(far.contains("too far apart"), "{far}");
     }
 
     #[test]
