@@ -800,3 +800,27 @@ fn damaged_files_are_named_by_their_kind_and_names_cannot_drive_the_terminal() {
     assert!(!text.contains('\u{1b}'), "{text:?}");
     assert!(text.contains("bark\\u{1b}[31m"), "{text}");
 }
+
+#[test]
+fn a_texture_beyond_the_renderers_f32_range_is_refused_naming_it() {
+    // Valid (its numbers are f64), but infinite in the renderer's f32: it drew nothing.
+    let dir = small_forest();
+    let first = Path::new(FIXTURE_TREES[0])
+        .file_stem()
+        .unwrap()
+        .to_string_lossy()
+        .into_owned();
+    let path = dir.path().join(format!("trees/{first}.texel"));
+    let bytes = texel_forest::formats::container::read_file(&path).unwrap();
+    let mut t = texel_forest::formats::texel::decode(&bytes).unwrap();
+    // A power of two keeps each level's cell exactly twice the last's.
+    for l in &mut t.levels {
+        l.cell *= 2f64.powi(1000);
+    }
+    std::fs::write(&path, texel_forest::formats::texel::encode(&t).unwrap()).unwrap();
+    let o = place_on_mountain(dir.path(), &["--region=-120,-120,120,120"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render(dir.path(), &["-o", "big.exr"]);
+    assert_error(&o, &[&format!("{first}.texel"), "beyond the 1e30"]);
+    assert!(!dir.path().join("big.exr").exists());
+}

@@ -246,7 +246,11 @@ mod tests {
         let c = Camera::look_at(DVec3::ZERO, DVec3::new(1e300, 0.0, 1e300), 40.0, 4, 4).unwrap();
         assert!((c.forward - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-12);
         let e = DVec3::splat(1e300);
-        assert!(Camera::look_at(e, e, 40.0, 4, 4).unwrap_err().contains("coincide"));
+        assert!(
+            Camera::look_at(e, e, 40.0, 4, 4)
+                .unwrap_err()
+                .contains("coincide")
+        );
         let far = Camera::look_at(-e, DVec3::splat(f64::MAX), 40.0, 4, 4).unwrap_err();
         assert!(far.contains("too far apart"), "{far}");
     }

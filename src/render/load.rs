@@ -74,7 +74,7 @@ pub enum LoadError {
         #[source]
         source: Box<dyn std::error::Error + Send + Sync>,
     },
-    /// The files are readable but do not fit together.
+    /// The files are readable but do not fit together, or ask for more than the renderer holds.
     #[error("{file}: {message}")]
     Mismatch { file: PathBuf, message: String },
 }
@@ -258,6 +258,22 @@ impl<'a> Textures<'a> {
                     "texel 1.{minor} was baked before the renderer's foliage model (texel 1.{}: \
                      leaf normals, self-shadowing); re-bake it with texel bake",
                     texel::RENDER_MINOR
+                ),
+            });
+        }
+        // The renderer holds a box in f32 of its model's units: one reaching beyond 1e30
+        // (valid, its numbers being f64) would be infinite there and draw nothing.
+        let l = &t.levels[0];
+        let reach = (0..3)
+            .map(|k| t.info.origin[k].abs() + l.cell * l.dims[k] as f64)
+            .fold(0.0, f64::max);
+        if reach > 1e30 {
+            return Err(LoadError::Mismatch {
+                file,
+                message: format!(
+                    "the texture's box reaches {reach:e} of its model's units from the model's \
+                     origin, beyond the 1e30 the renderer's f32 arithmetic holds; re-bake its \
+                     model in smaller units"
                 ),
             });
         }
