@@ -256,6 +256,34 @@ fn sequences_that_cannot_be_written_or_read_are_refused_before_rendering() {
         ],
     );
     assert_error(&o, &["fly.json", "drone", "keyframe file"]);
+    // Eye and target swap places over the path, meeting at its middle (frame 12 of 0..24):
+    // refused before frame 0 is written.
+    std::fs::write(
+        d.join("swap.json"),
+        r#"{
+  "format": "texel-forest camera path 1",
+  "keys": [
+    { "time": 0, "eye": [0, 420, 0], "target": [10, 420, 0] },
+    { "time": 1, "eye": [10, 420, 0], "target": [0, 420, 0] }
+  ]
+}"#,
+    )
+    .unwrap();
+    let o = render(
+        d,
+        &[
+            "--camera-path",
+            "swap.json",
+            "--frames",
+            "0..24",
+            "--fps",
+            "24",
+            "-o",
+            "s.##.exr",
+        ],
+    );
+    assert_error(&o, &["frame 12", "coincide"]);
+    assert!(!d.join("s.00.exr").exists());
     // Frames backwards, and a path with --eye.
     // Previews of different sizes do not animate; the error names the odd one.
     for (name, size) in [("a.png", "16"), ("b.png", "17")] {

@@ -114,20 +114,23 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     let mut loaded = Some(loaded);
     // The sun-depth grids do not depend on the eye: built once for the whole sequence.
     let mut grids = None;
-    for (n, shot) in shots.iter().enumerate() {
-        let camera = match &aim {
+    // Every frame's camera before the first frame renders: a path that fails in its middle
+    // fails before writing the frames ahead of the failure.
+    let cameras = shots
+        .iter()
+        .map(|shot| match &aim {
             Aim::Path(p) => {
                 let time = f64::from(shot.frame.unwrap_or(0)) / args.fps;
-                let c = p
-                    .camera(time, args.fov, view::DEFAULT_FOV, size)
-                    .map_err(|e| anyhow::anyhow!("frame {}: {e}", shot.frame.unwrap_or(0)))?;
-                if let Some(l) = &loaded {
-                    warn_underground(l, &c);
-                }
-                c
+                p.camera(time, args.fov, view::DEFAULT_FOV, size)
+                    .map_err(|e| anyhow::anyhow!("frame {}: {e}", shot.frame.unwrap_or(0)))
             }
-            Aim::Still(c) => *c,
-        };
+            Aim::Still(c) => Ok(*c),
+        })
+        .collect::<anyhow::Result<Vec<Camera>>>()?;
+    for (n, (shot, camera)) in shots.iter().zip(cameras).enumerate() {
+        if let (Aim::Path(_), Some(l)) = (&aim, &loaded) {
+            warn_underground(l, &camera);
+        }
         let build_start = Instant::now();
         // The last shot may take what was loaded; earlier ones build from a copy, each frame's
         // scene being in the frame of its own eye.
