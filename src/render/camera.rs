@@ -28,15 +28,18 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Camera, String> {
-        // Scaled to its largest component first: the length of a difference beyond 1e154
-        // overflows f64, and the direction would read as none.
         let d = target - eye;
         if !d.is_finite() {
             return Err(format!(
                 "the camera's eye {eye} and target {target} are too far apart to look along"
             ));
         }
-        let forward = (d / d.abs().max_element()).normalize_or_zero();
+        // The squared length of a difference beyond 1e154 overflows f64 and the direction
+        // would read as none: such a one is scaled down first (others are not, so that their
+        // cameras keep their bits).
+        let largest = d.abs().max_element();
+        let d = if largest > 1e150 { d / largest } else { d };
+        let forward = d.normalize_or_zero();
         if forward == DVec3::ZERO || !forward.is_finite() {
             return Err("the camera's eye and target coincide".into());
         }
