@@ -98,11 +98,17 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
             }
             let own = own.iter().find(|o| o.instance == i);
             let (enter, exit) = scene.instances.local_interval(i, local, t_max)?;
-            let (a, factor) = match own {
-                Some(o) => (Active::at_level(scene, i, local, exit, o.level), o.factor),
-                None => (Active::new(scene, i, local, exit, footprint, lod_bias), 1.0),
+            let a = match own {
+                // The own tree's extinction times its self-shadowing factor.
+                Some(o) => {
+                    let a = Active::at_level(scene, i, local, exit, o.level);
+                    Active {
+                        sigma_scale: (a.sigma_scale * o.factor).min(SIGMA_MAX),
+                        ..a
+                    }
+                }
+                None => Active::new(scene, i, local, exit, footprint, lod_bias),
             };
-            let sigma_scale = (a.sigma_scale * factor).min(SIGMA_MAX);
             let look = &scene.looks[scene.instances.get(i).look as usize];
             let level = &scene.texels[look.texel].levels[a.level];
             let occupancy = &scene.occupancy[look.texel][a.level];
@@ -136,7 +142,7 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                 };
                 let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
                 let d = occupancy.stencils.density_at(level, a.c0 + a.dc * ts);
-                depth += (sigma_scale * (d[0] + foliage * d[1])).min(SIGMA_MAX) * (end - t);
+                depth += a.extinction(d[0] + foliage * d[1]) * (end - t);
                 if depth > opaque {
                     // Stops the traversal: nothing further can make the light visible.
                     return Some(0.0);

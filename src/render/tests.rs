@@ -601,24 +601,29 @@ fn hard_cases_stay_finite_and_bounded() {
                 sigma,
                 [0.5; 3],
             );
-            let sun = Sun::from_angles(30.0, elevation, std::f32::consts::PI);
-            let scene = Scene::new(
-                DVec3::new(0.3, 1.0, 6.0),
-                vec![t],
-                vec![look()],
-                &[placed(DVec3::ZERO)],
-                Some(ground(0.0, 20.0, 0.3)),
-                Lighting {
-                    sun,
-                    shading: Shading::default(),
-                    sky: None,
-                },
-            );
+            let scene = one_box_over_ground(t, elevation);
             let camera =
                 Camera::look_at(scene.origin, DVec3::new(0.0, 0.5, 0.0), 50.0, 12, 12).unwrap();
             assert_sane(&scene, &camera);
         }
     }
+}
+
+/// Texture `t` placed once at the origin over a ground 20 m across, the sun at `elevation`
+/// degrees, seen from 6 m away.
+fn one_box_over_ground(t: Texel, elevation: f64) -> Scene {
+    Scene::new(
+        DVec3::new(0.3, 1.0, 6.0),
+        vec![t],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        Some(ground(0.0, 20.0, 0.3)),
+        Lighting {
+            sun: Sun::from_angles(30.0, elevation, std::f32::consts::PI),
+            shading: Shading::default(),
+            sky: None,
+        },
+    )
 }
 
 /// One dense cell in an empty 8³ box over a lit ground, its density `density` and the
@@ -632,18 +637,7 @@ fn one_dense_cell(density: f32, scale: f64, shadows: ShadowRays) -> super::Film 
     let mut t = uniform_texel([8, 8, 8], 0.25, DVec3::new(-1.0, 0.0, -1.0), 0.0, [0.5; 3]);
     t.levels = mip_chain(l, scale);
     t.info.extinction_scale = scale;
-    let scene = Scene::new(
-        DVec3::new(0.3, 1.0, 6.0),
-        vec![t],
-        vec![look()],
-        &[placed(DVec3::ZERO)],
-        Some(ground(0.0, 20.0, 0.3)),
-        Lighting {
-            sun: Sun::from_angles(30.0, 40.0, std::f32::consts::PI),
-            shading: Shading::default(),
-            sky: None,
-        },
-    );
+    let scene = one_box_over_ground(t, 40.0);
     let camera = Camera::look_at(scene.origin, DVec3::new(0.0, 1.0, 0.0), 30.0, 16, 16).unwrap();
     let settings = RenderSettings {
         spp: 4,
