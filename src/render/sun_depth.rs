@@ -30,6 +30,7 @@ use glam::Vec3;
 
 use super::instances::{Instances, TreeTransform};
 use super::scene::{Look, Scene};
+use super::walk::SIGMA_MAX;
 use crate::geom::Ray;
 use crate::volume::{Level, Texel, clamped_axis};
 
@@ -218,8 +219,9 @@ impl Grid {
     /// reads it: bilinear within the layer, 0 outside the grid); the sunward layer adds half a
     /// layer of its own, the distance to the grid's face.
     pub(super) fn new(level: &Level, origin: Vec3, scale: f32, foliage: f32, sun: Vec3) -> Grid {
-        // Finite, so that an empty cell's extinction is 0 even for a scale beyond f32's range.
-        let sigma_scale = (scale * level.directional_factor(sun)).min(f32::MAX);
+        // Held as the march holds it (`SIGMA_MAX`): finite, so that an empty cell's extinction
+        // is 0 even for a scale beyond f32's range.
+        let sigma_scale = (scale * level.directional_factor(sun)).min(SIGMA_MAX);
         let n = level.dims;
         let fine = fineness(n);
         let k = (0..3)
@@ -415,9 +417,9 @@ impl<'l> Slice<'l> {
         for ib in 0..n[b] {
             for ia in 0..n[a] {
                 let e = extinction(ia, ib, k0) * (1.0 - fk) + extinction(ia, ib, k1) * fk;
-                // Finite (with a finite scale), or an interpolation's weight of 0 on an
-                // infinite value would make a NaN.
-                self.values[ia + n[a] * ib] = (self.scale * e).min(f32::MAX);
+                // Finite, or an interpolation's weight of 0 on an infinite value would make a
+                // NaN.
+                self.values[ia + n[a] * ib] = (self.scale * e).min(SIGMA_MAX);
             }
         }
     }
