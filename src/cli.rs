@@ -567,8 +567,9 @@ pub struct RenderArgs {
         value_parser = lod_bias
     )]
     pub lod_bias: f32,
-    /// Further mip levels for shadow rays.
-    #[arg(long, default_value_t = 1.0, value_name = "LEVELS", value_parser = shadow_lod)]
+    /// Further mip levels for shadow rays: coarser, blurrier shadows between trees (0: the
+    /// level the view ray reads).
+    #[arg(long, default_value_t = 0.0, value_name = "LEVELS", value_parser = shadow_lod)]
     pub shadow_lod: f32,
     /// Random seed of the sampling.
     #[arg(long, default_value_t = 0)]

@@ -74,7 +74,7 @@ const SETTINGS: [(&str, &str); 12] = [
     ("--view-share", "0.2"),
     ("--lod-bias", "-1"),
     ("--lod-bias", "1"),
-    ("--shadow-lod", "0"),
+    ("--shadow-lod", "1"),
     ("--shadow-lod", "2"),
 ];
 

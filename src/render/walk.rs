@@ -26,7 +26,8 @@ pub struct March {
     pub cutoff: f32,
     /// Added to the mip level the footprint asks for (negative: sharper, slower).
     pub lod_bias: f32,
-    /// Extra mip levels for shadow rays, which need less detail.
+    /// Extra mip levels for shadow rays. 0 (the level the view ray reads) is the default:
+    /// measured nearer the reference and faster than 1 in every view of `make report`.
     pub shadow_lod: f32,
     /// Russian roulette on shadow rays: a sample whose share of the pixel (transmittance x
     /// opacity) is below this casts its shadow ray with probability share / this, and counts
@@ -47,7 +48,7 @@ impl Default for March {
             step: 1.0,
             cutoff: 1e-3,
             lod_bias: 0.0,
-            shadow_lod: 1.0,
+            shadow_lod: 0.0,
             shadow_share: 0.05,
             shadows: ShadowRays::Exact,
             view_share: 0.05,
