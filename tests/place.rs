@@ -417,6 +417,38 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
         assert_error(&o, &["wall.gltf", "no ground seen from above"]);
         assert!(!stderr(&o).contains("--cell"), "{}", stderr(&o));
     }
+    // A spike 3e38 m high: valid f32, but rays cast down on it overflowed, and the whole
+    // terrain read as "0 of 64 cells have terrain".
+    use base64::Engine as _;
+    let corners: Vec<u8> = [0.0f32, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 3e38, 10.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let mut spike = wall.clone();
+    spike["accessors"][0]["max"] = serde_json::json!([10, 3e38, 10]);
+    spike["buffers"][0]["uri"] = serde_json::json!(format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&corners)
+    ));
+    std::fs::write(
+        dir.path().join("spike.gltf"),
+        serde_json::to_vec(&spike).unwrap(),
+    )
+    .unwrap();
+    for args in [
+        &[
+            "place",
+            "spike.gltf",
+            "--species",
+            "species.json",
+            "-o",
+            "x.instances",
+        ][..],
+        &["inspect", "spike.gltf"][..],
+    ] {
+        let o = run(args, dir.path());
+        assert_error(&o, &["spike.gltf", "reaches 3e38 m", "vertex 2"]);
+    }
     assert!(
         !dir.path().join("forest.instances").exists() && !dir.path().join("x.instances").exists()
     );

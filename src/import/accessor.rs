@@ -299,6 +299,20 @@ fn substitute(
                 format!("index {target} is out of range for {count} elements"),
             ));
         }
+        // The spec requires strictly increasing indices: with a repeat, which value stands
+        // would be the reader's choice, not the file's.
+        if k > 0 && target <= targets[k - 1] {
+            return Err(ImportError::invalid(
+                &path,
+                format!("{here}.sparse.indices"),
+                format!(
+                    "index {target} (substitution {k}) does not follow {} (substitution {}): \
+                     indices must strictly increase",
+                    targets[k - 1],
+                    k - 1
+                ),
+            ));
+        }
         for c in 0..components {
             let at = k * elem + c * csize;
             data[target as usize * components + c] =

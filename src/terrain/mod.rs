@@ -141,18 +141,48 @@ pub fn load_model(
     purpose: &str,
     limits: &Limits,
 ) -> Result<(Model, Option<HeightmapOptions>), TerrainError> {
-    if let Some(format) = heightmap::Format::of_file(path) {
+    let (model, heightmap) = if let Some(format) = heightmap::Format::of_file(path) {
         let model = heightmap::load(path, format, options, limits)?;
-        return Ok((model, Some(*options)));
-    }
-    if !options.is_empty() {
+        (model, Some(*options))
+    } else {
+        if !options.is_empty() {
+            return Err(TerrainError::Invalid(format!(
+                "{}: --terrain-size and --height-range convert heightmap images (PNG, EXR, \
+                 TIFF, .r16); this is a glTF terrain, already in metres",
+                path.display()
+            )));
+        }
+        (import::load_surface(path, purpose, limits)?, None)
+    };
+    check_reach(path, &model)?;
+    Ok((model, heightmap))
+}
+
+/// How far from its origin a terrain may reach, in metres: a million kilometres, far beyond
+/// any terrain, and well inside what rays in f32 can meet (a triangle test multiplies three
+/// lengths; 1e27 is far below f32's 3e38).
+pub const MAX_REACH: f64 = 1e9;
+
+/// Refuses a terrain that reaches beyond [`MAX_REACH`]: valid in its file, it would overflow
+/// the f32 arithmetic of placement and rendering, which then found no ground at all.
+fn check_reach(path: &Path, model: &Model) -> Result<(), TerrainError> {
+    let far = model
+        .mesh
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (i, p.abs().max_element()))
+        .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+    if f64::from(far.1) > MAX_REACH {
         return Err(TerrainError::Invalid(format!(
-            "{}: --terrain-size and --height-range convert heightmap images (PNG, EXR, TIFF, \
-             .r16); this is a glTF terrain, already in metres",
-            path.display()
+            "{}: the terrain reaches {:e} m from its origin (vertex {} of its triangles), beyond \
+             the {MAX_REACH:e} m texel's arithmetic holds; export it in metres about the origin",
+            path.display(),
+            far.1,
+            far.0
         )));
     }
-    Ok((import::load_surface(path, purpose, limits)?, None))
+    Ok(())
 }
 
 #[cfg(test)]

@@ -386,6 +386,39 @@ fn sparse_indices_out_of_range_are_an_error() {
     assert!(e.contains("out of range"), "{e}");
 }
 
+/// glTF requires sparse indices to strictly increase: a repeat (or a step back) leaves which
+/// value stands to the reader, so it is refused, naming the indices.
+#[test]
+fn sparse_indices_that_do_not_increase_are_an_error() {
+    for indices in [[2u8, 2], [2, 1]] {
+        // Three floats of base, then the two indices (padded to 4), then two values.
+        let mut bin: Vec<u8> = [0.0f32, 1.0, 2.0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        bin.extend_from_slice(&[indices[0], indices[1], 0, 0]);
+        bin.extend([5.0f32, 6.0].iter().flat_map(|v| v.to_le_bytes()));
+        let doc = json!({
+            "asset": { "version": "2.0" },
+            "buffers": [{ "byteLength": bin.len() }],
+            "bufferViews": [
+                { "buffer": 0, "byteLength": 12 },
+                { "buffer": 0, "byteOffset": 12, "byteLength": 2 },
+                { "buffer": 0, "byteOffset": 16, "byteLength": 8 },
+            ],
+            "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "SCALAR",
+                "sparse": { "count": 2, "indices": { "bufferView": 1, "componentType": 5121 },
+                            "values": { "bufferView": 2 } } }],
+        });
+        let mut doc = document(glb(&doc, &bin), true);
+        let e = read(&mut doc, 0, "test").unwrap_err().to_string();
+        assert!(
+            e.contains("sparse.indices") && e.contains("strictly increase"),
+            "{e}"
+        );
+    }
+}
+
 #[test]
 fn index_accessors_must_be_unsigned_scalars() {
     let doc = json!({
