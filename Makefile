@@ -34,7 +34,7 @@ accuracy:
 	$(CARGO) run --release --example accuracy -- --anisotropy
 
 # Speed against error for every method and setting (report/; the reference renders are
-# cached in report/cache/). About 20 minutes on 2 cores the first time.
+# cached in report/cache/). About 35 minutes on 2 cores the first time (stop 29: 33).
 report: $(TEXEL)
 	$(CARGO) run --release --example report
 
