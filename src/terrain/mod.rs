@@ -161,25 +161,35 @@ pub fn load_model(
 /// How far from its origin a terrain may reach, in metres: a million kilometres, far beyond
 /// any terrain, and well inside what rays in f32 can meet (a triangle test multiplies three
 /// lengths; 1e27 is far below f32's 3e38).
-pub const MAX_REACH: f64 = 1e9;
+const MAX_REACH: f32 = 1e9;
 
 /// Refuses a terrain that reaches beyond [`MAX_REACH`]: valid in its file, it would overflow
 /// the f32 arithmetic of placement and rendering, which then found no ground at all.
 fn check_reach(path: &Path, model: &Model) -> Result<(), TerrainError> {
-    let far = model
+    let reach = |p: &Vec3| p.abs().max_element();
+    let Some(far) = model
         .mesh
         .positions
         .iter()
-        .enumerate()
-        .map(|(i, p)| (i, p.abs().max_element()))
-        .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
-    if f64::from(far.1) > MAX_REACH {
+        .max_by(|a, b| reach(a).total_cmp(&reach(b)))
+    else {
+        return Ok(());
+    };
+    if reach(far) > MAX_REACH {
+        // Huge coordinates in exponent form, not as forty digits.
+        let at = far.to_array().map(|v| {
+            if v.abs() < 1e6 {
+                format!("{v}")
+            } else {
+                format!("{v:e}")
+            }
+        });
         return Err(TerrainError::Invalid(format!(
-            "{}: the terrain reaches {:e} m from its origin (vertex {} of its triangles), beyond \
-             the {MAX_REACH:e} m texel's arithmetic holds; export it in metres about the origin",
+            "{}: the terrain reaches {:e} m from its origin (a vertex at ({}) m), beyond the \
+             {MAX_REACH:e} m texel's arithmetic holds; export it in metres about the origin",
             path.display(),
-            far.1,
-            far.0
+            reach(far),
+            at.join(", ")
         )));
     }
     Ok(())
