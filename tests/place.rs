@@ -386,79 +386,72 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
         dir.path(),
     );
     assert_error(&o, &["flat.gltf", "no triangles"]);
-    // A wall: one triangle standing in the x-y plane, no ground seen from above (it was
-    // reported as a zero --cell, a flag never given).
-    let wall = serde_json::json!({
-        "asset": { "version": "2.0" },
-        "scenes": [{ "nodes": [0] }], "nodes": [{ "mesh": 0 }],
-        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
-        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-                        "min": [0, 0, 0], "max": [10, 10, 0] }],
-        "bufferViews": [{ "buffer": 0, "byteLength": 36 }],
-        "buffers": [{ "byteLength": 36, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAAAgQQAAAAAAAAAAAAAAAAAAIEEAAAAA" }]
-    });
-    std::fs::write(
-        dir.path().join("wall.gltf"),
-        serde_json::to_vec(&wall).unwrap(),
-    )
-    .unwrap();
-    for args in [
-        &[
-            "place",
-            "wall.gltf",
-            "--species",
-            "species.json",
-            "-o",
-            "x.instances",
-        ][..],
-        &["inspect", "wall.gltf"][..],
-    ] {
-        let o = run(args, dir.path());
-        assert_error(&o, &["wall.gltf", "no ground seen from above"]);
-        assert!(!stderr(&o).contains("--cell"), "{}", stderr(&o));
-    }
-    // A spike 3e38 m high: valid f32, but rays cast down on it overflowed, and the whole
-    // terrain read as "0 of 64 cells have terrain".
-    use base64::Engine as _;
-    let corners: Vec<u8> = [0.0f32, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 3e38, 10.0]
-        .iter()
-        .flat_map(|v| v.to_le_bytes())
-        .collect();
-    let mut spike = wall.clone();
-    spike["accessors"][0]["max"] = serde_json::json!([10, 3e38, 10]);
-    spike["buffers"][0]["uri"] = serde_json::json!(format!(
-        "data:application/octet-stream;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(&corners)
-    ));
-    std::fs::write(
-        dir.path().join("spike.gltf"),
-        serde_json::to_vec(&spike).unwrap(),
-    )
-    .unwrap();
-    for args in [
-        &[
-            "place",
+    // Terrains of one triangle that place and inspect must refuse, naming the file. A wall,
+    // standing in the x-y plane: no ground seen from above (it was reported as a zero --cell,
+    // a flag never given). A spike 3e38 m high: valid f32, but rays cast down on it
+    // overflowed, and the whole terrain read as "0 of 64 cells have terrain".
+    let wall = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]];
+    let spike = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 3e38, 10.0]];
+    for (name, corners, expected) in [
+        ("wall.gltf", wall, &["no ground seen from above"][..]),
+        (
             "spike.gltf",
-            "--species",
-            "species.json",
-            "-o",
-            "x.instances",
-        ][..],
-        &["inspect", "spike.gltf"][..],
+            spike,
+            &["reaches 3e38 m", "a vertex at (0, 3e38, 10) m"][..],
+        ),
     ] {
-        let o = run(args, dir.path());
-        assert_error(
-            &o,
+        write_triangle_terrain(&dir.path().join(name), corners);
+        for args in [
             &[
-                "spike.gltf",
-                "reaches 3e38 m",
-                "a vertex at (0, 3e38, 10) m",
-            ],
-        );
+                "place",
+                name,
+                "--species",
+                "species.json",
+                "-o",
+                "x.instances",
+            ][..],
+            &["inspect", name][..],
+        ] {
+            let o = run(args, dir.path());
+            assert_error(&o, &[&[name][..], expected].concat());
+            assert!(!stderr(&o).contains("--cell"), "{}", stderr(&o));
+        }
     }
     assert!(
         !dir.path().join("forest.instances").exists() && !dir.path().join("x.instances").exists()
     );
+}
+
+/// A glTF terrain of one triangle with these corners, its buffer in a data URI.
+fn write_triangle_terrain(path: &Path, corners: [[f32; 3]; 3]) {
+    use base64::Engine as _;
+    let bytes: Vec<u8> = corners
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let (lo, hi) = (0..3)
+        .map(|a| {
+            let v = corners.map(|c| c[a]);
+            (
+                v.into_iter().fold(f32::INFINITY, f32::min),
+                v.into_iter().fold(f32::NEG_INFINITY, f32::max),
+            )
+        })
+        .unzip::<_, _, Vec<f32>, Vec<f32>>();
+    let doc = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scenes": [{ "nodes": [0] }], "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "min": lo, "max": hi }],
+        "bufferViews": [{ "buffer": 0, "byteLength": 36 }],
+        "buffers": [{ "byteLength": 36, "uri": format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bytes)
+        ) }]
+    });
+    std::fs::write(path, serde_json::to_vec(&doc).unwrap()).unwrap();
 }
 
 #[test]
