@@ -27,7 +27,8 @@ pub struct March {
     /// Added to the mip level the footprint asks for (negative: sharper, slower).
     pub lod_bias: f32,
     /// Extra mip levels for shadow rays. 0 (the level the view ray reads) is the default:
-    /// measured nearer the reference and faster than 1 in every view of `make report`.
+    /// nearer the reference than 1 in every view of `make report`, and no slower (README,
+    /// *Measured*).
     pub shadow_lod: f32,
     /// Russian roulette on shadow rays: a sample whose share of the pixel (transmittance x
     /// opacity) is below this casts its shadow ray with probability share / this, and counts
