@@ -367,3 +367,70 @@ fn every_tree_drawn_as_a_model_lies_within_the_model_horizon() {
     }
     assert!(beyond > 1000, "{beyond}");
 }
+
+/// A sample whose model horizon lies nearer than every tree is drawn as the texture method
+/// draws it (`Draw::simplified`), and only then: every tree's texture probability is one
+/// there. Both cases occur over footprints from fine to coarse, so the shortcut is neither
+/// never taken nor taken where a tree could still be a model.
+#[test]
+fn a_far_sample_is_drawn_from_textures_only_where_every_tree_is_one() {
+    let (texel, mesh) = boxed_tree();
+    let mut s = crate::rng::Stream::new(8, 0);
+    let mut u = || s.unit();
+    // A ring of trees 60 to 300 m from the eye, large and small.
+    let trees: Vec<Placed> = (0..200)
+        .map(|k| {
+            let (r, a) = (60.0 + u() * 240.0, u() * std::f64::consts::TAU);
+            Placed {
+                look: 0,
+                position: DVec3::new(r * a.cos(), u() * 10.0, r * a.sin()),
+                rotation: (u() * std::f64::consts::TAU) as f32,
+                scale: if k == 0 {
+                    3.3
+                } else {
+                    (0.3 + u() * 3.0) as f32
+                },
+            }
+        })
+        .collect();
+    let scene = Scene::new(
+        DVec3::new(0.0, 5.0, 0.0),
+        vec![texel],
+        vec![look()],
+        &trees,
+        None,
+        Lighting {
+            sun: HEAD_ON,
+            shading: Shading::default(),
+            sky: None,
+        },
+    )
+    .with_meshes(vec![mesh]);
+    let (mut plain, mut hybrid) = (0, 0);
+    for spread in (0..60).map(|k| 1e-4f32 * 1.15f32.powi(k)) {
+        for lod in [
+            Lod::default(),
+            Lod {
+                switch: 4.0,
+                band: 0.0,
+            },
+            Lod {
+                switch: 0.5,
+                band: 3.0,
+            },
+        ] {
+            match Draw::hybrid(lod, spread, 0).simplified(&scene) {
+                Draw::Texel => {
+                    plain += 1;
+                    for i in 0..scene.instances.len() as u32 {
+                        let p = Draw::texel_probability(&scene, &lod, spread, i);
+                        assert_eq!(p, 1.0, "tree {i}, spread {spread}, {lod:?}");
+                    }
+                }
+                Draw::Hybrid { .. } => hybrid += 1,
+                Draw::Mesh => panic!("a hybrid drawing became the mesh method's"),
+            }
+        }
+    }
+    assert!(plain > 10 && hybrid > 10, "{plain} plain, {hybrid} hybrid");
+}

@@ -118,6 +118,8 @@ pub struct Instances {
     /// centre to its corners (m), which bound how far from the eye the hybrid method can draw
     /// any tree as a model.
     largest: (f32, f32),
+    /// The distance from the eye (the frame's origin) to the nearest instance's box.
+    nearest: f32,
     bvh: Bvh,
 }
 
@@ -142,7 +144,13 @@ impl Instances {
                 radius.max((b.hi - b.lo).length() * 0.5 * i.scale),
             )
         });
+        // Each box's point nearest the origin, the eye.
+        let nearest = boxes
+            .iter()
+            .map(|b| Vec3::ZERO.max(b.lo).min(b.hi).length())
+            .fold(f32::INFINITY, f32::min);
         Instances {
+            nearest,
             bvh: Bvh::build(&boxes),
             list,
             model_boxes,
@@ -165,6 +173,12 @@ impl Instances {
 
     fn world_box(i: &TreeTransform, b: Aabb) -> Aabb {
         Aabb::of_points(&Self::world_corners(i, b))
+    }
+
+    /// The distance from the eye (the frame's origin) to the nearest point of any instance's
+    /// box; infinite where there are none.
+    pub fn nearest_distance(&self) -> f32 {
+        self.nearest
     }
 
     #[inline]

@@ -70,7 +70,7 @@ pub fn hybrid(
         spread,
         key,
         march,
-        Draw::hybrid(lod, spread, lod_key),
+        Draw::hybrid(lod, spread, lod_key).simplified(scene),
     )
 }
 

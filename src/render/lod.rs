@@ -79,6 +79,21 @@ impl Draw {
         }
     }
 
+    /// The same drawing, as cheaply as `scene` allows: where every tree lies beyond the model
+    /// horizon (a far view), each is drawn from its texture whatever the sample, and the plain
+    /// texture drawing makes those choices without working them out tree by tree: the same
+    /// bytes, a few percent faster (README, *Measured*).
+    pub fn simplified(self, scene: &Scene) -> Draw {
+        match self {
+            Draw::Hybrid { .. }
+                if self.model_horizon(scene) < scene.instances.nearest_distance() =>
+            {
+                Draw::Texel
+            }
+            _ => self,
+        }
+    }
+
     /// [`Draw::texel_probability`] with the band's ends given.
     #[inline]
     fn probability(scene: &Scene, lod: &Lod, (lo, hi): (f32, f32), spread: f32, i: u32) -> f32 {
