@@ -1087,9 +1087,38 @@ fn the_canopy_layer_averages_the_samples() {
 /// three overlapping trees of a lopsided cloud, turned and scaled, lit from the side; from
 /// points in and around them, with and without their own trees' self-shadowing, at the finest
 /// level and one coarser. The exact march here takes 20 samples per cell, so its own noise
-/// (and the bias exp(-depth) takes from it) is far below the tolerance.
+/// (and the bias exp(-depth) takes from it) is far below the tolerance. The trees stand at
+/// turns the grids of every level read here are drawn at (16ths), so this measures the grids
+/// alone: interpolated between columns, single rays' light is off by 0.020-0.040 over these
+/// three sets of turns, the mean depth by less than 0.002.
 #[test]
 fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
+    let turn = std::f32::consts::TAU / 16.0;
+    for turns in [[1.0, 5.0, 13.0], [2.0, 6.0, 13.0], [0.0, 3.0, 9.0]] {
+        let (worst, bias) = cached_against_exact(turns.map(|k| k * turn));
+        assert!(
+            worst < 0.05,
+            "{turns:?}: worst difference in transmittance {worst}"
+        );
+        assert!(bias.iter().all(|b| b.abs() < 0.005), "{turns:?}: {bias:?}");
+    }
+}
+
+/// The same trees at turns between the grids': rounding each tree's shadow to the nearest
+/// 64th of a turn (on the finest level; 32nds one coarser) shifts it by up to a third of a
+/// cell here, which moves single rays' light by up to 0.13 but leaves the mean depth within
+/// 0.015 of the exact march's (`make budget`: 0.3-0.8% of the frame's error).
+#[test]
+fn cached_shadow_rays_of_trees_between_turns_stay_near_the_exact_march() {
+    let (worst, bias) = cached_against_exact([0.4, 2.2, 5.1]);
+    assert!(worst < 0.15, "worst difference in transmittance {worst}");
+    assert!(bias.iter().all(|b| b.abs() < 0.015), "{bias:?}");
+}
+
+/// Over points in and around three trees at `rotations` (radians): the largest difference in
+/// transmittance between cached and exact shadow rays, and per footprint (the other trees read
+/// at level 1, at level 2) the mean difference in optical depth.
+fn cached_against_exact(rotations: [f32; 3]) -> (f32, [f64; 2]) {
     let n = 16;
     let mut l = Level::empty([n; 3], 0.25);
     for i in 0..l.cell_count() {
@@ -1104,9 +1133,9 @@ fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
     let mut texel = uniform_texel([n; 3], 0.25, DVec3::new(-2.0, 0.0, -2.0), 0.0, [0.5; 3]);
     texel.levels = mip_chain(l, 1.0);
     let trees = [
-        (DVec3::ZERO, 0.4, 1.0),
-        (DVec3::new(1.5, 0.3, -0.8), 2.2, 1.3),
-        (DVec3::new(-0.6, -0.2, 1.2), 5.1, 0.8),
+        (DVec3::ZERO, rotations[0], 1.0),
+        (DVec3::new(1.5, 0.3, -0.8), rotations[1], 1.3),
+        (DVec3::new(-0.6, -0.2, 1.2), rotations[2], 0.8),
     ];
     let placed: Vec<Placed> = trees
         .iter()
@@ -1192,12 +1221,7 @@ fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
         bias[(k % 4 / 2) as usize] += f64::from(exact.max(1e-6).ln() - cached.max(1e-6).ln());
         worst = worst.max((cached - exact).abs());
     }
-    // Per footprint (the other trees read at level 1, at level 2), the mean difference in
-    // optical depth.
-    let bias = bias.map(|b| b / 200.0);
-    println!("worst difference in transmittance {worst}, mean in depth {bias:?}");
-    assert!(worst < 0.03, "worst difference in transmittance {worst}");
-    assert!(bias.iter().all(|b| b.abs() < 0.005), "{bias:?}");
+    (worst, bias.map(|b| b / 200.0))
 }
 
 /// A grid shared by trees of one turn and different scales, and species that differ only in
