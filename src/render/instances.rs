@@ -194,6 +194,12 @@ impl Instances {
         self.list.is_empty()
     }
 
+    /// The finest texture cell of model `model`, in its own units.
+    #[inline]
+    pub fn finest_cell(&self, model: u32) -> f32 {
+        self.model_lod[model as usize].1
+    }
+
     /// The centre of instance `i`'s model box, placed in the world, and the size of its
     /// model's finest texture cell there (m).
     #[inline]

@@ -70,10 +70,24 @@ pub enum ShadowRays {
 /// by `lod_bias` levels.
 pub(super) fn level_for(scene: &Scene, i: u32, footprint: f32, lod_bias: f32) -> usize {
     let inst: &TreeTransform = scene.instances.get(i);
-    let texel = scene.texel_of(i);
-    let cell0 = texel.levels[0].cell as f32;
-    let wanted = (footprint / inst.scale / cell0).max(1.0).log2() + lod_bias;
-    (wanted.max(0.0) as usize).min(texel.levels.len() - 1)
+    let cell0 = scene.instances.finest_cell(inst.model);
+    let levels = scene.texels[inst.model as usize].levels.len();
+    level_of(footprint / inst.scale / cell0, lod_bias, levels)
+}
+
+/// The level of `levels` whose cells match a footprint of `cells` finest cells, moved by
+/// `lod_bias` levels: the whole part of log2(cells) + lod_bias.
+fn level_of(cells: f32, lod_bias: f32, levels: usize) -> usize {
+    let cells = cells.max(1.0);
+    // With a whole bias (the defaults) only log2's whole part counts, and for a float of at
+    // least 1 that is its exponent: a shadow ray asks for a level for every tree it passes,
+    // and this function with its logarithm was a twentieth of a far frame.
+    let log2 = if lod_bias == lod_bias.trunc() {
+        ((cells.to_bits() >> 23) as i32 - 127) as f32
+    } else {
+        cells.log2()
+    };
+    ((log2 + lod_bias).max(0.0) as usize).min(levels - 1)
 }
 
 /// An instance the ray is inside of, with its ray in the texture's cell coordinates.
@@ -267,4 +281,39 @@ pub(super) fn segment_end(walk: &Walk, t: f32, t_max: f32, step: f32, key: u64) 
         end = t + f32::EPSILON * t.max(1.0);
     }
     (end, t + rng::unit(key) as f32 * (end - t))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::level_of;
+    use crate::rng::Stream;
+
+    /// The level is the whole part of log2(cells) + bias, clamped to the levels there are, as
+    /// f64 works it out, for whole biases (read from the exponent) and others (a logarithm);
+    /// footprints below a cell, not a number or infinite read the finest and the coarsest.
+    #[test]
+    fn a_footprint_reads_the_level_whose_cells_match_it() {
+        let mut s = Stream::new(3, 0);
+        for _ in 0..20000 {
+            let cells = (s.unit() * 24.0).exp2() as f32;
+            for bias in [-2.0f32, -1.0, 0.0, 1.0, 3.0, -0.5, 0.25, 1.75] {
+                let want = (f64::from(cells).log2() + f64::from(bias))
+                    .floor()
+                    .clamp(0.0, 6.0);
+                assert_eq!(
+                    level_of(cells, bias, 7),
+                    want as usize,
+                    "{cells} cells, bias {bias}"
+                );
+            }
+        }
+        for k in 0..24 {
+            let cells = (k as f32).exp2();
+            assert_eq!(level_of(cells, 0.0, 30), k);
+            assert_eq!(level_of(cells.next_down(), 0.0, 30), k.saturating_sub(1));
+        }
+        assert_eq!(level_of(0.3, 0.0, 5), 0);
+        assert_eq!(level_of(f32::NAN, 1.0, 5), 1);
+        assert_eq!(level_of(f32::INFINITY, 0.0, 5), 4);
+    }
 }
