@@ -41,8 +41,8 @@ const TURNS: usize = 256;
 /// How many times the finest level's turns are halved from [`TURNS`] at the least: its
 /// shadows are drawn at 64 turns, half as many on each coarser level. A 64th of a turn moves
 /// no point of a tree 12 m across by more than 29 cm, three quarters of the finest cell of the
-/// fixtures' 32-cell textures. Against 256 turns this adds 0.4-0.8 percentage points of the
-/// error budget's total (cache's change +3.0 / +4.0 / +2.0% far / middle / near, against
+/// fixtures' 32-cell textures. Against 256 turns it adds 0.3-0.6% to the error budget's
+/// totals (what the cache adds to them: +3.0 / +4.0 / +2.0% far / middle / near, against
 /// +2.6 / +3.2 / +1.7%) and leaves the trees as bright or brighter; a quarter of the grids
 /// fit the caches: far view 1.14x and demo frame 1.06x faster (README, *Measured*).
 const FINEST_COARSENING: usize = 2;

@@ -1107,7 +1107,7 @@ fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
 /// The same trees at turns between the grids': rounding each tree's shadow to the nearest
 /// 64th of a turn (on the finest level; 32nds one coarser) shifts it by up to a third of a
 /// cell here, which moves single rays' light by up to 0.13 but leaves the mean depth within
-/// 0.015 of the exact march's (`make budget`: 0.3-0.8% of the frame's error).
+/// 0.015 of the exact march's (`make budget`: 0.3-0.6% more error over a frame).
 #[test]
 fn cached_shadow_rays_of_trees_between_turns_stay_near_the_exact_march() {
     let (worst, bias) = cached_against_exact([0.4, 2.2, 5.1]);
