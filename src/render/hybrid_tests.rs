@@ -289,6 +289,41 @@ fn textures_composite_over_meshes_in_depth_order() {
     assert!((r.distance - 10.0).abs() < 1e-4, "{r:?}");
 }
 
+/// The switch and band settings the horizon tests try: the defaults, a hard switch at coarse
+/// footprints, and a wide band around a fine one.
+const SETTINGS: [Lod; 3] = [
+    Lod {
+        switch: 1.0,
+        band: 1.0,
+    },
+    Lod {
+        switch: 4.0,
+        band: 0.0,
+    },
+    Lod {
+        switch: 0.5,
+        band: 3.0,
+    },
+];
+
+/// `trees` of the boxed tree, with its mesh, seen from `eye`, lit head on, on no terrain.
+fn boxed_forest(eye: DVec3, trees: &[Placed]) -> Scene {
+    let (texel, mesh) = boxed_tree();
+    Scene::new(
+        eye,
+        vec![texel],
+        vec![look()],
+        trees,
+        None,
+        Lighting {
+            sun: HEAD_ON,
+            shading: Shading::default(),
+            sky: None,
+        },
+    )
+    .with_meshes(vec![mesh])
+}
+
 /// The hybrid method looks for the models' surfaces only up to the model horizon: every tree
 /// it may draw as a model (texture probability below one) lies wholly within it, whatever
 /// the tree's turn and scale, for footprints from fine to coarse and three bands; so the search
@@ -296,7 +331,6 @@ fn textures_composite_over_meshes_in_depth_order() {
 /// coarser footprints some trees lie beyond it.
 #[test]
 fn every_tree_drawn_as_a_model_lies_within_the_model_horizon() {
-    let (texel, mesh) = boxed_tree();
     let mut s = crate::rng::Stream::new(5, 0);
     let mut u = || s.unit();
     // Half the trees at the largest scale, whose cells set the horizon: those just inside it
@@ -313,32 +347,10 @@ fn every_tree_drawn_as_a_model_lies_within_the_model_horizon() {
             },
         })
         .collect();
-    let scene = Scene::new(
-        DVec3::new(3.0, 4.0, -2.0),
-        vec![texel],
-        vec![look()],
-        &trees,
-        None,
-        Lighting {
-            sun: HEAD_ON,
-            shading: Shading::default(),
-            sky: None,
-        },
-    )
-    .with_meshes(vec![mesh]);
+    let scene = boxed_forest(DVec3::new(3.0, 4.0, -2.0), &trees);
     let mut beyond = 0;
     for spread in (0..40).map(|k| 1e-4f32 * 1.15f32.powi(k)) {
-        for lod in [
-            Lod::default(),
-            Lod {
-                switch: 4.0,
-                band: 0.0,
-            },
-            Lod {
-                switch: 0.5,
-                band: 3.0,
-            },
-        ] {
+        for lod in SETTINGS {
             let draw = Draw::hybrid(lod, spread, 0);
             let horizon = draw.model_horizon(&scene);
             for i in 0..scene.instances.len() as u32 {
@@ -374,7 +386,6 @@ fn every_tree_drawn_as_a_model_lies_within_the_model_horizon() {
 /// never taken nor taken where a tree could still be a model.
 #[test]
 fn a_far_sample_is_drawn_from_textures_only_where_every_tree_is_one() {
-    let (texel, mesh) = boxed_tree();
     let mut s = crate::rng::Stream::new(8, 0);
     let mut u = || s.unit();
     // A ring of trees 60 to 300 m from the eye, large and small.
@@ -393,42 +404,23 @@ fn a_far_sample_is_drawn_from_textures_only_where_every_tree_is_one() {
             }
         })
         .collect();
-    let scene = Scene::new(
-        DVec3::new(0.0, 5.0, 0.0),
-        vec![texel],
-        vec![look()],
-        &trees,
-        None,
-        Lighting {
-            sun: HEAD_ON,
-            shading: Shading::default(),
-            sky: None,
-        },
-    )
-    .with_meshes(vec![mesh]);
+    let scene = boxed_forest(DVec3::new(0.0, 5.0, 0.0), &trees);
     let (mut plain, mut hybrid) = (0, 0);
     for spread in (0..60).map(|k| 1e-4f32 * 1.15f32.powi(k)) {
-        for lod in [
-            Lod::default(),
-            Lod {
-                switch: 4.0,
-                band: 0.0,
-            },
-            Lod {
-                switch: 0.5,
-                band: 3.0,
-            },
-        ] {
-            match Draw::hybrid(lod, spread, 0).simplified(&scene) {
-                Draw::Texel => {
-                    plain += 1;
-                    for i in 0..scene.instances.len() as u32 {
-                        let p = Draw::texel_probability(&scene, &lod, spread, i);
-                        assert_eq!(p, 1.0, "tree {i}, spread {spread}, {lod:?}");
-                    }
-                }
-                Draw::Hybrid { .. } => hybrid += 1,
-                Draw::Mesh => panic!("a hybrid drawing became the mesh method's"),
+        for lod in SETTINGS {
+            let draw = Draw::hybrid(lod, spread, 0).simplified(&scene);
+            assert!(
+                !matches!(draw, Draw::Mesh),
+                "a hybrid drawing became the mesh method's"
+            );
+            if matches!(draw, Draw::Hybrid { .. }) {
+                hybrid += 1;
+                continue;
+            }
+            plain += 1;
+            for i in 0..scene.instances.len() as u32 {
+                let p = Draw::texel_probability(&scene, &lod, spread, i);
+                assert_eq!(p, 1.0, "tree {i}, spread {spread}, {lod:?}");
             }
         }
     }
