@@ -22,6 +22,7 @@ pub mod input;
 pub mod inspect;
 pub mod limits;
 pub mod mesh_tracer;
+pub mod number;
 pub mod output;
 pub mod place;
 #[cfg(feature = "dev-tools")]

@@ -687,6 +687,41 @@ fn inspect_of_a_clustered_forest_is_not_quadratic() {
     eprintln!("inspect of 100,000 coincident trees: {:?}", start.elapsed());
 }
 
+/// Values no forest has but a file can hold (a region and trees a trillion light years
+/// across, positions of 1e300) are printed as numbers a person can read, not as hundreds of
+/// digits.
+#[test]
+fn inspect_prints_huge_values_in_a_few_characters() {
+    use texel_forest::formats::instances;
+    let dir = tempfile::tempdir().unwrap();
+    let golden = std::fs::read(fixture("formats/forest-12.instances")).unwrap();
+    let mut forest = instances::decode(&golden).unwrap();
+    forest.info.region = [-1e300, -1e300, 1e300, 1e300];
+    forest.info.species[0].spacing = 1e300;
+    forest.info.origin = [1e300, 1e300, -1e300];
+    for t in &mut forest.instances {
+        t.position = forest.info.origin;
+    }
+    forest.heightmap = Some(instances::HeightmapOptions {
+        size: Some([1e300, 2.5]),
+        height_range: Some([-1e-300, 1e300]),
+    });
+    let bytes = instances::encode(&forest).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(dir.path().join("huge.instances"), bytes).unwrap();
+    let o = run(&["inspect", "huge.instances"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("-1.0e300 .. 1.0e300"), "{text}");
+    assert!(text.contains("1e300 x 2.5 m (--terrain-size)"), "{text}");
+    for line in text.lines() {
+        assert!(
+            line.len() < 200,
+            "a line of {} characters: {line}",
+            line.len()
+        );
+    }
+}
+
 /// An OpenEXR header for a `width` x `height` RGBA float image, with no pixel data after it.
 fn exr_header_only(width: i32, height: i32) -> Vec<u8> {
     let mut b = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];

@@ -8,6 +8,7 @@ use serde::Serialize;
 use super::printable;
 use crate::formats::instances::Forest;
 use crate::hex::hex;
+use crate::number::{number, shortest};
 use crate::provenance::SourceFile;
 use crate::terrain::{Heightfield, Terrain, hillshade};
 
@@ -216,8 +217,13 @@ pub fn to_text(s: &ForestSummary) -> String {
     let r = s.region;
     let _ = writeln!(
         o,
-        "region        x {:.1} .. {:.1}, z {:.1} .. {:.1} m ({:.1} ha), seed {}",
-        r[0], r[2], r[1], r[3], s.hectares, s.seed
+        "region        x {} .. {}, z {} .. {} m ({} ha), seed {}",
+        number(r[0], 1),
+        number(r[2], 1),
+        number(r[1], 1),
+        number(r[3], 1),
+        number(s.hectares, 1),
+        s.seed
     );
     let cut = if s.truncated {
         " (stopped by --max-count)"
@@ -229,9 +235,9 @@ pub fn to_text(s: &ForestSummary) -> String {
     } else {
         let _ = writeln!(
             o,
-            "trees         {}{cut}, {:.1} per hectare",
+            "trees         {}{cut}, {} per hectare",
             s.trees,
-            s.trees as f64 / s.hectares
+            number(s.trees as f64 / s.hectares, 1)
         );
     }
     let _ = writeln!(
@@ -241,14 +247,14 @@ pub fn to_text(s: &ForestSummary) -> String {
     );
     for sp in &s.species {
         let heights = sp.height_range.map_or(format!("{:>15}", "-"), |h| {
-            format!("{:>6.1} .. {:>5.1}", h[0], h[1])
+            format!("{:>6} .. {:>5}", number(h[0], 1), number(h[1], 1))
         });
         let _ = writeln!(
             o,
-            "              {:<14} {:>8} {:>9.1} {heights}  {}  {}",
+            "              {:<14} {:>8} {:>9} {heights}  {}  {}",
             printable(&sp.name),
             sp.trees,
-            sp.per_hectare,
+            number(sp.per_hectare, 1),
             sp.map_color,
             printable(&sp.texel)
         );
@@ -257,7 +263,9 @@ pub fn to_text(s: &ForestSummary) -> String {
         (Some(d), Some(r)) => {
             let _ = writeln!(
                 o,
-                "spacing       closest pair {d:.2} m; closest relative to the larger radius {r:.3} (the rule keeps it >= 1)"
+                "spacing       closest pair {} m; closest relative to the larger radius {} (the rule keeps it >= 1)",
+                number(d, 2),
+                number(r, 3)
             );
         }
         _ => {
@@ -268,7 +276,12 @@ pub fn to_text(s: &ForestSummary) -> String {
     let _ = writeln!(o, "heights");
     for (lo, hi, count) in &s.height_bins {
         let bar = "#".repeat((40 * count).div_ceil(most));
-        let _ = writeln!(o, "  {lo:>6.1} .. {hi:>5.1} m {count:>8} {bar}");
+        let _ = writeln!(
+            o,
+            "  {:>6} .. {:>5} m {count:>8} {bar}",
+            number(*lo, 1),
+            number(*hi, 1)
+        );
     }
     for (i, t) in s.terrain.iter().enumerate() {
         let label = if i == 0 { "terrain" } else { "" };
@@ -284,10 +297,10 @@ pub fn to_text(s: &ForestSummary) -> String {
         let size = h
             .size
             .map_or("from its GeoTIFF tags".to_string(), |[x, z]| {
-                format!("{x} x {z} m (--terrain-size)")
+                format!("{} x {} m (--terrain-size)", shortest(x), shortest(z))
             });
         let heights = h.height_range.map_or("as stored".to_string(), |[lo, hi]| {
-            format!("{lo} .. {hi} m (--height-range)")
+            format!("{} .. {} m (--height-range)", shortest(lo), shortest(hi))
         });
         let _ = writeln!(o, "heightmap     {size}, heights {heights}");
     }

@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use super::printable;
 use crate::color::ramp;
+use crate::number::number;
 use crate::place::{self, Ground, PlaceError, PlaceSettings};
 use crate::provenance::SourceFile;
 use crate::species::SpeciesFile;
@@ -75,13 +76,20 @@ pub fn to_text(s: &TerrainSummary) -> String {
     let mut o = String::new();
     let _ = writeln!(
         o,
-        "format        {}, {} triangles (a regular grid of as many would have {:.2} m cells)",
-        s.format, s.triangles, s.natural_cell
+        "format        {}, {} triangles (a regular grid of as many would have {} m cells)",
+        s.format,
+        s.triangles,
+        number(s.natural_cell, 2)
     );
     let _ = writeln!(
         o,
-        "bounds        x {:.1} .. {:.1}, y {:.1} .. {:.1}, z {:.1} .. {:.1} m",
-        s.min[0], s.max[0], s.min[1], s.max[1], s.min[2], s.max[2]
+        "bounds        x {} .. {}, y {} .. {}, z {} .. {} m",
+        number(s.min[0], 1),
+        number(s.max[0], 1),
+        number(s.min[1], 1),
+        number(s.max[1], 1),
+        number(s.min[2], 1),
+        number(s.max[2], 1)
     );
     o += &survey::to_text(&s.survey);
     for (i, src) in s.sources.iter().enumerate() {

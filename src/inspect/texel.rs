@@ -6,6 +6,7 @@ use serde::Serialize;
 
 use super::{FileFacts, printable};
 use crate::hex::hex;
+use crate::number::{number, shortest};
 use crate::provenance::SourceFile;
 use glam::Vec3;
 
@@ -246,8 +247,11 @@ fn write_grid(o: &mut String, s: &Summary) {
     );
     let _ = writeln!(
         o,
-        "resolution    {} x {} x {} cells of {:.4} m",
-        l0.dims[0], l0.dims[1], l0.dims[2], l0.cell
+        "resolution    {} x {} x {} cells of {} m",
+        l0.dims[0],
+        l0.dims[1],
+        l0.dims[2],
+        number(l0.cell, 4)
     );
     let chain: Vec<String> = s
         .levels
@@ -261,7 +265,8 @@ fn write_grid(o: &mut String, s: &Summary) {
         .map(|l| {
             let [x, y, z] = l.factor_axes;
             let [lo, hi] = l.factor_range;
-            format!("{x:.2}/{y:.2}/{z:.2} ({lo:.2}..{hi:.2})")
+            let [x, y, z, lo, hi] = [x, y, z, lo, hi].map(|v| number(v, 2));
+            format!("{x}/{y}/{z} ({lo}..{hi})")
         })
         .collect();
     let _ = writeln!(
@@ -279,15 +284,22 @@ fn write_grid(o: &mut String, s: &Summary) {
         angles.join("/")
     );
     for (n, l) in s.levels.iter().enumerate() {
-        let row: Vec<String> = l.self_shadow.iter().map(|k| format!("{k:.2}")).collect();
+        let row: Vec<String> = l
+            .self_shadow
+            .iter()
+            .map(|&k| number(k, 2).to_string())
+            .collect();
         let _ = writeln!(
             o,
-            "              level {n}: {}   (wood shown x {:.2})",
+            "              level {n}: {}   (wood shown x {})",
             row.join(" "),
-            l.wood_weight
+            number(l.wood_weight, 2)
         );
     }
-    let f = |v: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
+    let f = |v: [f64; 3]| {
+        let [x, y, z] = v.map(|c| number(c, 3));
+        format!("({x}, {y}, {z})")
+    };
     let _ = writeln!(
         o,
         "model bounds  {} .. {} m",
@@ -297,8 +309,8 @@ fn write_grid(o: &mut String, s: &Summary) {
     let _ = writeln!(o, "grid origin   {} m", f(s.origin));
     let model = match s.density_model {
         DensityModel::Occupancy => format!(
-            "occupancy, extinction = {:.4} /m x occupancy",
-            s.extinction_scale
+            "occupancy, extinction = {} /m x occupancy",
+            number(s.extinction_scale, 4)
         ),
         DensityModel::Transmittance => "transmittance-calibrated extinction (1/m)".to_string(),
     };
@@ -357,8 +369,12 @@ fn write_contents(o: &mut String, s: &Summary) {
         };
         let _ = writeln!(
             o,
-            "  {:<26} {:>6}  {:>11.4} {:>12.4} {:>12.4}  {over}",
-            c.name, c.unit, c.min, c.max, c.mean
+            "  {:<26} {:>6}  {:>11} {:>12} {:>12}  {over}",
+            c.name,
+            c.unit,
+            number(c.min, 4),
+            number(c.max, 4),
+            number(c.mean, 4)
         );
     }
 }
@@ -368,7 +384,7 @@ fn write_provenance(o: &mut String, s: &Summary) {
     let p = &s.parameters;
     let gamma = p
         .requested_gamma
-        .map_or("fitted".to_string(), |g| format!("{g}"));
+        .map_or("fitted".to_string(), |g| shortest(g).to_string());
     let wood = p
         .wood_pattern
         .as_ref()

@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::{Attributes, Heightfield, TERRAIN_ATTRIBUTES};
+use crate::number::{number, shortest};
 use crate::species::{Band, Habitat, Preference, SpeciesFile};
 
 /// Units of the attributes, in [`TERRAIN_ATTRIBUTES`] order.
@@ -201,29 +202,39 @@ pub fn to_text(s: &Survey) -> String {
     let r = s.region;
     let _ = writeln!(
         o,
-        "region        x {:.1} to {:.1}, z {:.1} to {:.1} m ({:.2} km x {:.2} km)",
-        r[0],
-        r[2],
-        r[1],
-        r[3],
-        (r[2] - r[0]) / 1e3,
-        (r[3] - r[1]) / 1e3,
+        "region        x {} to {}, z {} to {} m ({} km x {} km)",
+        number(r[0], 1),
+        number(r[2], 1),
+        number(r[1], 1),
+        number(r[3], 1),
+        number((r[2] - r[0]) / 1e3, 2),
+        number((r[3] - r[1]) / 1e3, 2),
     );
     let _ = writeln!(
         o,
-        "raster        {:.2} m cells; {} of the region's {} cells have terrain",
-        s.cell, s.cells_with_terrain, s.cells
+        "raster        {} m cells; {} of the region's {} cells have terrain",
+        number(s.cell, 2),
+        s.cells_with_terrain,
+        s.cells
     );
     let _ = writeln!(
         o,
         "attribute (topographic position over {} m)      min       5%      25%      50%      75%      95%      max",
-        s.tpi_radius
+        shortest(s.tpi_radius)
     );
     for a in &s.attributes {
         let _ = writeln!(
             o,
-            "  {:<22} {:>8} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1}",
-            a.name, a.unit, a.min, a.p5, a.p25, a.p50, a.p75, a.p95, a.max
+            "  {:<22} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+            a.name,
+            a.unit,
+            number(a.min, 1),
+            number(a.p5, 1),
+            number(a.p25, 1),
+            number(a.p50, 1),
+            number(a.p75, 1),
+            number(a.p95, 1),
+            number(a.max, 1)
         );
     }
     for f in &s.species {
