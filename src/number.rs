@@ -1,5 +1,5 @@
-//! Numbers for people to read: what `texel inspect` and the survey print of values read from
-//! files, which may be anything a float holds.
+//! Numbers for people to read: what `texel inspect`, the survey and the readers' errors print
+//! of values read from files, which may be anything a float holds.
 
 /// A number from a file, for a person: fixed-point where that reads well, else in
 /// scientific notation. A damaged or hostile file's 1e300 shows as `1.0000e300`, not as 301

@@ -6,6 +6,7 @@ use bincode::{Decode, Encode};
 
 use super::container::{self, ContainerError, header_config};
 use crate::limits::{LimitError, Limits};
+use crate::number::shortest;
 use crate::provenance::SourceFile;
 use crate::species::{Seasons, Traits};
 
@@ -96,7 +97,11 @@ impl HeightmapOptions {
         {
             return Err((
                 "--terrain-size".into(),
-                format!("{x},{z} is not two positive finite extents"),
+                format!(
+                    "{},{} is not two positive finite extents",
+                    shortest(x),
+                    shortest(z)
+                ),
             ));
         }
         if let Some([lo, hi]) = self.height_range
@@ -104,7 +109,7 @@ impl HeightmapOptions {
         {
             return Err((
                 "--height-range".into(),
-                format!("{lo},{hi} needs finite LO < HI"),
+                format!("{},{} needs finite LO < HI", shortest(lo), shortest(hi)),
             ));
         }
         Ok(())
@@ -471,14 +476,17 @@ fn validate(info: &ForestInfo) -> Result<(), InstancesError> {
         ];
         if let Some((field, v)) = sizes.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
             return bad(format!(
-                "species {:?}: {field} {v} is not a positive finite number",
-                s.name
+                "species {:?}: {field} {} is not a positive finite number",
+                s.name,
+                shortest(*v)
             ));
         }
         if s.height_min > s.height_max {
             return bad(format!(
                 "species {:?}: height_min {} exceeds height_max {}",
-                s.name, s.height_min, s.height_max
+                s.name,
+                shortest(s.height_min),
+                shortest(s.height_max)
             ));
         }
         if s.leafless_texel.is_some() != s.leafless_sha256.is_some() {

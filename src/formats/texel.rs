@@ -8,6 +8,7 @@ use bincode::{Decode, Encode};
 
 use super::container::{self, ContainerError, header_config};
 use crate::limits::{LimitError, Limits};
+use crate::number::shortest;
 use crate::provenance::SourceFile;
 use crate::volume::{
     BakeParameters, DensityModel, Level, MaterialPart, PartReason, Texel, TexelInfo,
@@ -666,7 +667,7 @@ fn validate_geometry(h: &Header) -> Result<(), TexelError> {
     if !(h.extinction_scale.is_finite() && h.extinction_scale > 0.0) {
         return bad(format!(
             "extinction scale {} is not a positive number",
-            h.extinction_scale
+            shortest(h.extinction_scale)
         ));
     }
     if h.levels.is_empty() || h.levels.len() > MAX_LEVELS {
@@ -683,7 +684,10 @@ fn validate_geometry(h: &Header) -> Result<(), TexelError> {
         ));
     }
     if !(first.cell.is_finite() && first.cell > 0.0) {
-        return bad(format!("cell size {} is not a positive number", first.cell));
+        return bad(format!(
+            "cell size {} is not a positive number",
+            shortest(first.cell)
+        ));
     }
     for (i, pair) in h.levels.windows(2).enumerate() {
         let want = pair[0].dims.map(|d| d.div_ceil(2));

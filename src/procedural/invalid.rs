@@ -239,6 +239,12 @@ fn texel_level_chain_files(base: &Texel, add: &mut Add) {
         forge(&|p| p.header.extinction_scale = 0.0),
         "extinction scale 0 is not a positive number",
     );
+    // A value the message must show in a few characters, not in 301 digits.
+    add(
+        "extinction-scale-minus-1e300",
+        forge(&|p| p.header.extinction_scale = -1e300),
+        "extinction scale -1e300 is not a positive number",
+    );
     add("no-levels", forge(&|p| p.header.levels.clear()), "0 levels");
     add(
         "seventeen-levels",
