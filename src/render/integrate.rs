@@ -236,7 +236,7 @@ struct Sample<'a> {
     footprint: f32,
     /// The thickness of the layer the sample stands for: a cell, or the segment if longer.
     layer: f32,
-    /// Its share of the pixel (transmittance before it x its opacity), for the roulette.
+    /// Its share of its ray (transmittance before it x its opacity), for the roulette.
     share: f32,
     /// The ray's key and the segment's index, which key the sample's draws.
     key: (u64, u64),

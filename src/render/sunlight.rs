@@ -155,7 +155,7 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
     if depth > opaque { 0.0 } else { (-depth).exp() }
 }
 
-/// The light `light()` finds, for a sample with `share` of the pixel: always computed for a
+/// The light `light()` finds, for a sample with `share` of its ray: always computed for a
 /// large share, else with probability share / `march.shadow_share` and divided by it, so
 /// that its expectation is unchanged and a skipped shadow ray costs nothing. `cast` counts
 /// the shadow rays.

@@ -30,9 +30,9 @@ pub struct March {
     /// nearer the reference than 1 in every view of `make report`, and no slower (README,
     /// *Measured*).
     pub shadow_lod: f32,
-    /// Russian roulette on shadow rays: a sample whose share of the pixel (transmittance x
-    /// opacity) is below this casts its shadow ray with probability share / this, and counts
-    /// it that many times more. Unbiased; 0 casts every shadow ray.
+    /// Russian roulette on shadow rays: a sample whose share of its ray (transmittance x
+    /// opacity; of the pixel at 1 spp) is below this casts its shadow ray with probability
+    /// share / this, and counts it that many times more. Unbiased; 0 casts every shadow ray.
     pub shadow_share: f32,
     /// How shadow rays cross the trees' textures. Exact by default here, the estimator the
     /// library's tests hold to analytic answers; `texel render` defaults to cached.
