@@ -20,10 +20,11 @@ pub fn number(value: impl Into<f64>, decimals: usize) -> Number {
 }
 
 /// [`Number`]: `value` in as few digits as tell it exactly (a value a user gave, shown as
-/// given: `120`, `0.25`, `1e300`).
-pub fn shortest(value: impl Into<f64>) -> Number {
+/// given: `120`, `0.25`, `1e300`). An f64 only: an f32 widened to f64 would show its binary
+/// tail (0.1f32 as 0.10000000149011612).
+pub fn shortest(value: f64) -> Number {
     Number {
-        value: value.into(),
+        value,
         decimals: None,
     }
 }
@@ -67,7 +68,7 @@ mod tests {
         assert_eq!(format!("[{:>9}]", number(2.5, 2)), "[     2.50]");
         assert_eq!(format!("[{:<9}]", number(1e20, 1)), "[1.0e20   ]");
         assert_eq!(shortest(120.0).to_string(), "120");
-        assert_eq!(shortest(0.25f32).to_string(), "0.25");
+        assert_eq!(shortest(0.25).to_string(), "0.25");
         assert_eq!(shortest(1e300).to_string(), "1e300");
         assert_eq!(shortest(-1.5e-7).to_string(), "-1.5e-7");
     }
