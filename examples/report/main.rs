@@ -108,6 +108,12 @@ struct Row {
     alpha_rmse: f64,
 }
 
+/// A render to time: its forest, and its flags besides the view's and the image size.
+struct Job {
+    forest: String,
+    flags: Vec<String>,
+}
+
 struct Report {
     root: PathBuf,
     texel: PathBuf,
@@ -190,18 +196,45 @@ impl Report {
         self.run(&args)
     }
 
-    /// [`Report::render`] timed: runs shorter than [`REPEAT_BELOW`] are made [`REPEATS`]
-    /// times and their median is taken (the image is the same each time), because a single
-    /// run of a second on a shared 2-core machine cannot resolve the 5-10% steps measured.
-    fn timed(&self, forest: &str, view: &View<'_>, extra: &[&str], out: &str) -> f64 {
-        let first = self.render(forest, view, extra, out);
-        if first >= REPEAT_BELOW {
-            return first;
+    /// Every job of `jobs` rendered from `view` to `out` and timed: each once, in order,
+    /// `after(i)` called right after job `i`'s run while `out` holds its image; then those
+    /// shorter than [`REPEAT_BELOW`] again, in rounds over the whole list, until each has
+    /// [`REPEATS`] runs. Each job's median time.
+    ///
+    /// In rounds, not back to back: this machine's speed drifts by up to a fifth over minutes
+    /// (two runs of one image, minutes apart, read 1.04 s and 1.23 s in one report), and the
+    /// report's ratios compare jobs with each other. Run back to back, a drift moved one job's
+    /// three runs together; in rounds, it moves every job's alike.
+    fn timed(
+        &self,
+        view: &View<'_>,
+        jobs: &[Job],
+        out: &str,
+        mut after: impl FnMut(usize),
+    ) -> Vec<f64> {
+        let run = |job: &Job| {
+            let flags: Vec<&str> = job.flags.iter().map(String::as_str).collect();
+            self.render(&job.forest, view, &flags, out)
+        };
+        let mut times: Vec<Vec<f64>> = Vec::with_capacity(jobs.len());
+        for (i, job) in jobs.iter().enumerate() {
+            times.push(vec![run(job)]);
+            after(i);
         }
-        let mut times = vec![first];
-        times.extend((1..REPEATS).map(|_| self.render(forest, view, extra, out)));
-        times.sort_by(f64::total_cmp);
-        times[times.len() / 2]
+        for _ in 1..REPEATS {
+            for (job, t) in jobs.iter().zip(&mut times) {
+                if t[0] < REPEAT_BELOW {
+                    t.push(run(job));
+                }
+            }
+        }
+        times
+            .into_iter()
+            .map(|mut t| {
+                t.sort_by(f64::total_cmp);
+                t[t.len() / 2]
+            })
+            .collect()
     }
 
     /// The ground truth for `view`: a mesh render at many spp with its canopy AOV, and `extra`
@@ -292,27 +325,25 @@ impl Report {
         .unwrap();
         eprintln!("report: the {} view...", view.name);
         let out = format!("{}.exr", view.name);
-        let mut record = |method: &str, setting: &str, spp: u32, seconds: f64| {
-            let (rmse, relative_mse, alpha_rmse) = measure(&self.work.join(&out), &reference);
-            rows.push(Row {
-                view: view.name,
-                method: method.into(),
-                setting: setting.into(),
-                spp,
-                seconds,
-                rmse,
-                relative_mse,
-                alpha_rmse,
-            });
-        };
-        // A method with its default settings at `spp`.
-        let plain = |method: &str, spp: u32| {
-            let s = spp.to_string();
-            let flags = ["--method", method, "--spp", &s];
-            self.timed(default_forest, view, &flags, &out)
+        // In the order the tables list them: the mesh method's spp sweep, every texel
+        // variant, the texel settings, the hybrid and its settings; each (method, setting,
+        // spp) in `labels`.
+        let (mut labels, mut jobs): (Vec<(String, String, u32)>, Vec<Job>) = (vec![], vec![]);
+        let mut add = |method: &str, setting: &str, spp: u32, forest: &str, flags: &[&str]| {
+            let flags = flags.iter().map(|f| f.to_string()).collect();
+            let forest = forest.to_string();
+            labels.push((method.into(), setting.into(), spp));
+            jobs.push(Job { forest, flags });
         };
         for spp in [1, 4, 16, 64] {
-            record("mesh", "", spp, plain("mesh", spp));
+            let s = spp.to_string();
+            add(
+                "mesh",
+                "",
+                spp,
+                default_forest,
+                &["--method", "mesh", "--spp", &s],
+            );
         }
         for (density, resolution, forest) in variants {
             let spps: &[u32] = if *density == "transmittance" && *resolution == 32 {
@@ -322,37 +353,67 @@ impl Report {
             };
             for &spp in spps {
                 let s = spp.to_string();
-                let t = self.timed(forest, view, &["--method", "texel", "--spp", &s], &out);
-                record(&format!("texel {density} {resolution}"), "", spp, t);
+                let method = format!("texel {density} {resolution}");
+                add(
+                    &method,
+                    "",
+                    spp,
+                    forest,
+                    &["--method", "texel", "--spp", &s],
+                );
             }
         }
         for (flag, value) in SETTINGS {
-            let t = self.timed(
+            let setting = format!("{flag} {value}");
+            let flags = ["--method", "texel", flag, value];
+            add(
+                "texel transmittance 32",
+                &setting,
+                1,
                 default_forest,
-                view,
-                &["--method", "texel", flag, value],
-                &out,
+                &flags,
             );
-            record("texel transmittance 32", &format!("{flag} {value}"), 1, t);
         }
         for spp in [1, 4, 16] {
-            record("hybrid", "", spp, plain("hybrid", spp));
+            let s = spp.to_string();
+            add(
+                "hybrid",
+                "",
+                spp,
+                default_forest,
+                &["--method", "hybrid", "--spp", &s],
+            );
         }
         for (flag, value) in HYBRID_SETTINGS {
-            for spp in ["1", "4"] {
-                let t = self.timed(
-                    default_forest,
-                    view,
-                    &["--method", "hybrid", "--spp", spp, flag, value],
-                    &out,
-                );
-                record(
+            for spp in [1, 4] {
+                let s = spp.to_string();
+                let flags = ["--method", "hybrid", "--spp", &s, flag, value];
+                add(
                     "hybrid",
                     &format!("{flag} {value}"),
-                    spp.parse().unwrap(),
-                    t,
+                    spp,
+                    default_forest,
+                    &flags,
                 );
             }
+        }
+        let mut errors = Vec::with_capacity(jobs.len());
+        let seconds = self.timed(view, &jobs, &out, |_| {
+            errors.push(measure(&self.work.join(&out), &reference));
+        });
+        for (((method, setting, spp), seconds), (rmse, relative_mse, alpha_rmse)) in
+            labels.into_iter().zip(seconds).zip(errors)
+        {
+            rows.push(Row {
+                view: view.name,
+                method,
+                setting,
+                spp,
+                seconds,
+                rmse,
+                relative_mse,
+                alpha_rmse,
+            });
         }
     }
 
@@ -402,15 +463,19 @@ impl Report {
             let reference = self.reference_at(forest, &view, &[], SWEEP_REFERENCE_SPP);
             let reference = Rgba::read(&reference, &Default::default()).unwrap();
             let out = format!("{name}.exr");
-            let run = |method: &str| {
-                let seconds = self.timed(forest, &view, &["--method", method], &out);
-                (seconds, measure(&self.work.join(&out), &reference).0)
-            };
+            let jobs = ["hybrid", "texel", "mesh"].map(|method| Job {
+                forest: forest.to_string(),
+                flags: vec!["--method".into(), method.into()],
+            });
+            let mut errors = Vec::new();
+            let seconds = self.timed(&view, &jobs, &out, |_| {
+                errors.push(measure(&self.work.join(&out), &reference).0);
+            });
             rows.push(SweepRow {
                 distance,
-                hybrid: run("hybrid"),
-                texel: run("texel"),
-                mesh: run("mesh"),
+                hybrid: (seconds[0], errors[0]),
+                texel: (seconds[1], errors[1]),
+                mesh: (seconds[2], errors[2]),
             });
         }
         rows
@@ -621,7 +686,9 @@ fn write_outputs(dir: &Path, m: &Measured, seconds: f64) {
     let mut md = format!(
         "# Speed against error\n\nWritten by `make report` ({seconds:.0} s). Images {WIDTH} x {HEIGHT}; \
          error is the colour RMSE against a {REFERENCE_SPP}-spp mesh render (the ground truth); \
-         times are whole `texel render` runs on this machine.\n\n"
+         times are whole `texel render` runs on this machine: runs under {REPEAT_BELOW} s are made \
+         {REPEATS} times, in rounds over all of a view's renders (so that the machine's drift over \
+         minutes moves them alike), and their median is taken.\n\n"
     );
     md += "## Headline\n\n| view | best texel setting | its time, error | mesh time for that error | texel faster by | texel error floor |\n|---|---|---|---|---|---|\n";
     for view in VIEWS.iter().map(|v| v.name) {
