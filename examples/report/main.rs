@@ -197,7 +197,7 @@ impl Report {
     }
 
     /// Every job of `jobs` rendered from `view` to `out` and timed: each once, in order,
-    /// `after(i)` called right after job `i`'s run while `out` holds its image; then those
+    /// `after()` called right after each run while `out` holds its image; then those
     /// shorter than [`REPEAT_BELOW`] again, in rounds over the whole list, until each has
     /// [`REPEATS`] runs. Each job's median time.
     ///
@@ -205,21 +205,15 @@ impl Report {
     /// (two runs of one image, minutes apart, read 1.04 s and 1.23 s in one report), and the
     /// report's ratios compare jobs with each other. Run back to back, a drift moved one job's
     /// three runs together; in rounds, it moves every job's alike.
-    fn timed(
-        &self,
-        view: &View<'_>,
-        jobs: &[Job],
-        out: &str,
-        mut after: impl FnMut(usize),
-    ) -> Vec<f64> {
+    fn timed(&self, view: &View<'_>, jobs: &[Job], out: &str, mut after: impl FnMut()) -> Vec<f64> {
         let run = |job: &Job| {
             let flags: Vec<&str> = job.flags.iter().map(String::as_str).collect();
             self.render(&job.forest, view, &flags, out)
         };
         let mut times: Vec<Vec<f64>> = Vec::with_capacity(jobs.len());
-        for (i, job) in jobs.iter().enumerate() {
+        for job in jobs {
             times.push(vec![run(job)]);
-            after(i);
+            after();
         }
         for _ in 1..REPEATS {
             for (job, t) in jobs.iter().zip(&mut times) {
@@ -398,7 +392,7 @@ impl Report {
             }
         }
         let mut errors = Vec::with_capacity(jobs.len());
-        let seconds = self.timed(view, &jobs, &out, |_| {
+        let seconds = self.timed(view, &jobs, &out, || {
             errors.push(measure(&self.work.join(&out), &reference));
         });
         for (((method, setting, spp), seconds), (rmse, relative_mse, alpha_rmse)) in
@@ -468,7 +462,7 @@ impl Report {
                 flags: vec!["--method".into(), method.into()],
             });
             let mut errors = Vec::new();
-            let seconds = self.timed(&view, &jobs, &out, |_| {
+            let seconds = self.timed(&view, &jobs, &out, || {
                 errors.push(measure(&self.work.join(&out), &reference).0);
             });
             rows.push(SweepRow {
