@@ -35,9 +35,8 @@ pub mod purpose {
     /// XOR-ed into a sample's key to key its ray.
     pub const RAY: u64 = 0x5a;
     /// Per view-ray segment `hash3(ray key, segment, ..)`: where in the segment the sample is,
-    /// whether its shadow ray is cast (roulette), and the shadow ray's own stream.
+    /// and its shadow ray's own stream.
     pub const SEGMENT_JITTER: u64 = 0x72;
-    pub const SEGMENT_ROULETTE: u64 = 0x7272;
     pub const SEGMENT_LIGHT: u64 = 0x6c;
     /// The leaf normal a segment's foliage is shaded with (`render::leaves`).
     pub const SEGMENT_LEAF: u64 = 0x6c66;
@@ -45,10 +44,11 @@ pub mod purpose {
     pub const SEGMENT_PART: u64 = 0x7061;
     /// Whether a view ray whose transmittance has fallen low goes on past a segment.
     pub const SEGMENT_GO_ON: u64 = 0x676f;
-    /// The terrain hit's shadow ray: `hash3(ray key, 0, ..)` with these, which no segment
-    /// purpose equals (a segment index in the middle slot once made the ground's stream that
-    /// of segment 103).
-    pub const GROUND_ROULETTE: u64 = 0x6772_6f75;
+    /// A view ray's own draws, `hash3(ray key, 0, ..)` with these, which no segment purpose
+    /// equals (a segment index in the middle slot once made the ground's stream that of
+    /// segment 103): the offset of the stratified roulette that decides which of its samples
+    /// cast a shadow ray (`render::sunlight::Strata`), and the terrain hit's shadow ray.
+    pub const RAY_ROULETTE: u64 = 0x7374_7261;
     pub const GROUND_LIGHT: u64 = 0x6772_6c69;
     /// The mesh method: a ray's shadow stream (XOR-ed into its key), which leaves a tree keeps
     /// at a partial leaf fraction, and alpha-blended triangles.
@@ -171,12 +171,11 @@ mod purposes {
     fn ray_purposes_are_distinct() {
         let all = [
             SEGMENT_JITTER,
-            SEGMENT_ROULETTE,
             SEGMENT_LIGHT,
             SEGMENT_LEAF,
             SEGMENT_PART,
             SEGMENT_GO_ON,
-            GROUND_ROULETTE,
+            RAY_ROULETTE,
             GROUND_LIGHT,
         ];
         for (i, a) in all.iter().enumerate() {

@@ -347,8 +347,15 @@ fn usage_errors_name_the_flags() {
 
 /// The Khronos glTF-Validator (npm `gltf-validator`), installed on first use under the
 /// tests' temporary directory, as a `node` script; `None` (with a note) where node, npm or
-/// the registry is unavailable.
+/// the registry is unavailable. Installed once per test process: tests run in parallel, and
+/// one that found the package's directory while another's install was still filling it
+/// failed with "Cannot find module".
 fn validator() -> Option<PathBuf> {
+    static VALIDATOR: std::sync::OnceLock<Option<PathBuf>> = std::sync::OnceLock::new();
+    VALIDATOR.get_or_init(install_validator).clone()
+}
+
+fn install_validator() -> Option<PathBuf> {
     let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("gltf-validator");
     let script = root.join("validate.js");
     if !root.join("node_modules/gltf-validator").exists() {

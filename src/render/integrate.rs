@@ -40,7 +40,7 @@ use super::matte;
 use super::mesh::{self, TreeHit};
 use super::scene::Scene;
 use super::shading::{Radiance, shade, shade_ground, sun_radiance};
-use super::sunlight::{Caster, MAX_OWN, OwnTree, roulette, sun_light};
+use super::sunlight::{Caster, MAX_OWN, OwnTree, Strata, roulette, sun_light};
 use super::walk::{Active, March, Walk, segment_end};
 use crate::geom::{Ray, TriangleHit};
 use crate::rng::{self, purpose};
@@ -109,6 +109,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
     let mut transmittance = 1.0f32;
     let mut t = 0.0f32;
     let mut segment = 0u64;
+    let mut strata = Strata::new(rng::hash3(key, 0, purpose::RAY_ROULETTE));
     // With mattes, each segment's trees and their extinctions (`render::matte`).
     let record = matte::recording();
     let mut each = Vec::new();
@@ -166,7 +167,14 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
             key: (key, segment),
             draw: &draw,
         };
-        let source = scatter(scene, &walk.active, &sample, march, &mut out.shadow_rays);
+        let source = scatter(
+            scene,
+            &walk.active,
+            &sample,
+            march,
+            &mut strata,
+            &mut out.shadow_rays,
+        );
         out.rgb += source * share;
         if record {
             matte::add_split(&each, share);
@@ -209,7 +217,14 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
         march,
         draw: &draw,
     };
-    finish(scene, ray, behind, transmittance, &lighting, &mut out);
+    finish(
+        scene,
+        ray,
+        behind,
+        transmittance,
+        (&lighting, &mut strata),
+        &mut out,
+    );
     out
 }
 
@@ -253,6 +268,7 @@ fn scatter(
     active: &[Active],
     s: &Sample,
     march: &March,
+    strata: &mut Strata,
     shadow_rays: &mut u32,
 ) -> Vec3 {
     let (m, dir, sun) = (s.mix, s.dir, scene.sun);
@@ -273,36 +289,30 @@ fn scatter(
     let lit = if !scene.shadows {
         sun_radiance(scene)
     } else {
-        roulette(
-            s.share,
-            march,
-            rng::hash3(key, segment, purpose::SEGMENT_ROULETTE),
-            shadow_rays,
-            || {
-                // Only for a shadow ray actually cast: the roulette skips most.
-                let mut own = [OwnTree::default(); MAX_OWN];
-                let mut n = 0;
-                if foliage_scatters {
-                    let cos_g = (-dir).dot(sun.direction);
-                    for a in active.iter().take(MAX_OWN) {
-                        let texel = scene.texel_of(a.instance);
-                        own[n] = OwnTree {
-                            instance: a.instance,
-                            level: a.level,
-                            factor: texel.levels[a.level].self_shadow_at(cos_g),
-                        };
-                        n += 1;
-                    }
+        roulette(s.share, march, strata, shadow_rays, || {
+            // Only for a shadow ray actually cast: the roulette skips most.
+            let mut own = [OwnTree::default(); MAX_OWN];
+            let mut n = 0;
+            if foliage_scatters {
+                let cos_g = (-dir).dot(sun.direction);
+                for a in active.iter().take(MAX_OWN) {
+                    let texel = scene.texel_of(a.instance);
+                    own[n] = OwnTree {
+                        instance: a.instance,
+                        level: a.level,
+                        factor: texel.levels[a.level].self_shadow_at(cos_g),
+                    };
+                    n += 1;
                 }
-                let caster = Caster {
-                    footprint: s.footprint,
-                    key: rng::hash3(key, segment, purpose::SEGMENT_LIGHT),
-                    own: &own[..n],
-                    draw: s.draw,
-                };
-                sun_light(scene, p, march, &caster)
-            },
-        )
+            }
+            let caster = Caster {
+                footprint: s.footprint,
+                key: rng::hash3(key, segment, purpose::SEGMENT_LIGHT),
+                own: &own[..n],
+                draw: s.draw,
+            };
+            sun_light(scene, p, march, &caster)
+        })
     };
     let albedo = if foliage_scatters {
         m.albedo_foliage / m.foliage
@@ -449,7 +459,7 @@ fn finish(
     ray: Ray,
     behind: Behind,
     transmittance: f32,
-    l: &SurfaceLight,
+    (l, strata): (&SurfaceLight, &mut Strata),
     out: &mut Radiance,
 ) {
     let half = if matches!(behind, Behind::Sky) {
@@ -481,10 +491,10 @@ fn finish(
     }
     match behind {
         Behind::Ground(g, hit) if transmittance >= l.march.cutoff => {
-            light_ground(scene, g, ray, hit, transmittance, l, out);
+            light_ground(scene, g, ray, hit, transmittance, (l, strata), out);
         }
         Behind::Tree(h) if transmittance >= l.march.cutoff => {
-            light_tree(scene, ray, &h, transmittance, l, out);
+            light_tree(scene, ray, &h, transmittance, (l, strata), out);
         }
         Behind::Ground(..) | Behind::Tree(_) => out.transmittance = 0.0,
         Behind::Sky => {
@@ -515,7 +525,7 @@ fn light_ground(
     ray: Ray,
     (tri, hit): (u32, crate::geom::TriangleHit),
     transmittance: f32,
-    l: &SurfaceLight,
+    (l, strata): (&SurfaceLight, &mut Strata),
     out: &mut Radiance,
 ) {
     let normal = g.normal(tri, ray.dir);
@@ -529,7 +539,7 @@ fn light_ground(
         leave: g.leave(tri, &hit, normal, scene.sun.direction),
         light_key: rng::hash3(l.key, 0, purpose::GROUND_LIGHT),
     };
-    light_opaque(scene, &surface, transmittance, l, out, |lit| {
+    light_opaque(scene, &surface, transmittance, (l, strata), out, |lit| {
         shade_ground(scene, albedo, normal, lit)
     });
 }
@@ -543,7 +553,7 @@ fn light_tree(
     ray: Ray,
     h: &TreeHit,
     transmittance: f32,
-    l: &SurfaceLight,
+    (l, strata): (&SurfaceLight, &mut Strata),
     out: &mut Radiance,
 ) {
     let s = mesh::tree_surface(scene, h, ray.dir);
@@ -557,7 +567,7 @@ fn light_tree(
         // alpha-blended triangles from.
         light_key: l.key,
     };
-    light_opaque(scene, &surface, transmittance, l, out, |lit| {
+    light_opaque(scene, &surface, transmittance, (l, strata), out, |lit| {
         shade(scene, s.albedo, Some(s.normal), lit, -ray.dir)
     });
 }
@@ -579,7 +589,7 @@ fn light_opaque(
     scene: &Scene,
     surface: &Opaque,
     transmittance: f32,
-    l: &SurfaceLight,
+    (l, strata): (&SurfaceLight, &mut Strata),
     out: &mut Radiance,
     shade: impl FnOnce(f32) -> Vec3,
 ) {
@@ -588,21 +598,15 @@ fn light_opaque(
     } else if !scene.shadows {
         sun_radiance(scene)
     } else {
-        roulette(
-            transmittance,
-            l.march,
-            rng::hash3(l.key, 0, purpose::GROUND_ROULETTE),
-            &mut out.shadow_rays,
-            || {
-                let caster = Caster {
-                    footprint: surface.t * l.spread,
-                    key: surface.light_key,
-                    own: &[],
-                    draw: l.draw,
-                };
-                sun_light(scene, surface.leave, l.march, &caster)
-            },
-        )
+        roulette(transmittance, l.march, strata, &mut out.shadow_rays, || {
+            let caster = Caster {
+                footprint: surface.t * l.spread,
+                key: surface.light_key,
+                own: &[],
+                draw: l.draw,
+            };
+            sun_light(scene, surface.leave, l.march, &caster)
+        })
     };
     out.rgb += shade(lit) * transmittance;
     if out.distance.is_infinite() {

@@ -155,14 +155,36 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
     if depth > opaque { 0.0 } else { (-depth).exp() }
 }
 
+/// Which of one ray's samples with a small share cast their shadow ray: the roulette of
+/// [`roulette`], stratified along the ray. The small shares are laid end to end, in units of
+/// `--shadow-share`, from one uniform offset per ray; a sample casts where its stretch
+/// crosses a whole number. Each still casts with probability share / shadow-share, whatever
+/// came before it (the offset is uniform, so is where its stretch starts between two whole
+/// numbers), but a ray casts as many shadow rays as its small shares add up to, give or take
+/// one, not a number left to chance: independent draws would leave one ray unlit and light
+/// another twice.
+pub(super) struct Strata {
+    /// The offset plus the small shares so far, in units of the shadow share.
+    sum: f32,
+}
+
+impl Strata {
+    /// A ray's strata, its offset drawn from `key`.
+    pub(super) fn new(key: u64) -> Strata {
+        Strata {
+            sum: rng::unit(key) as f32,
+        }
+    }
+}
+
 /// The light `light()` finds, for a sample with `share` of its ray: always computed for a
-/// large share, else with probability share / `march.shadow_share` and divided by it, so
-/// that its expectation is unchanged and a skipped shadow ray costs nothing. `cast` counts
-/// the shadow rays.
+/// large share, else with probability share / `march.shadow_share` (the ray's `strata`
+/// decide) and divided by it, so that its expectation is unchanged and a skipped shadow ray
+/// costs nothing. `cast` counts the shadow rays.
 pub(super) fn roulette(
     share: f32,
     march: &March,
-    key: u64,
+    strata: &mut Strata,
     cast: &mut u32,
     light: impl FnOnce() -> f32,
 ) -> f32 {
@@ -172,7 +194,11 @@ pub(super) fn roulette(
     }
     // Any probability works if it is the one divided by; a floor keeps 1/p finite.
     let p = (share / march.shadow_share).max(1e-6);
-    if (rng::unit(key) as f32) < p {
+    let before = strata.sum;
+    strata.sum += p;
+    // Whole numbers crossed: p < 1, so at most one (and the sum stays below 2^24 for any
+    // ray of fewer than 16 million samples, where adding p still moves it).
+    if strata.sum.floor() > before.floor() {
         *cast += 1;
         light() / p
     } else {
@@ -188,4 +214,56 @@ pub(super) fn sun_light(scene: &Scene, p: Vec3, march: &March, caster: &Caster) 
     };
     let t = transmittance(scene, ray, f32::INFINITY, march, caster);
     sun_radiance(scene) * t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Strata, roulette};
+    use crate::render::March;
+
+    /// Along a ray of small and large shares, the stratified roulette casts each small
+    /// sample's shadow ray with probability share / shadow-share, weighted by its inverse
+    /// (each sample's light kept in expectation, over the ray's offset), and casts as many
+    /// of them as the small shares add up to in units of the shadow share, rounded down or
+    /// up: never none on a ray whose small shares add up to a whole shadow share.
+    #[test]
+    fn stratified_roulette_keeps_each_samples_light_and_spreads_the_rays() {
+        let march = March {
+            shadow_share: 0.05,
+            ..March::default()
+        };
+        let shares = [
+            0.3, 0.2, 0.04, 0.012, 0.031, 0.0007, 0.049, 0.02, 0.0301, 0.005, 0.017, 0.06, 0.01,
+        ];
+        let small: f64 = shares
+            .iter()
+            .filter(|&&s| s < march.shadow_share)
+            .map(|&s| f64::from(s / march.shadow_share))
+            .sum();
+        let offsets = 20_000;
+        let mut light = vec![0.0f64; shares.len()];
+        for k in 0..offsets {
+            let mut strata = Strata {
+                sum: (k as f32 + 0.5) / offsets as f32,
+            };
+            let mut cast = 0u32;
+            for (l, &share) in light.iter_mut().zip(&shares) {
+                *l += f64::from(roulette(share, &march, &mut strata, &mut cast, || 1.0));
+            }
+            let large = shares.iter().filter(|&&s| s >= march.shadow_share).count() as f64;
+            let rouletted = f64::from(cast) - large;
+            assert!(
+                rouletted == small.floor() || rouletted == small.ceil(),
+                "offset {k}: {rouletted} shadow rays for small shares adding up to {small}"
+            );
+        }
+        for (l, share) in light.iter().zip(shares) {
+            let mean = l / f64::from(offsets);
+            // The offsets are a grid: a sample casting for a fraction p of them is off by at
+            // most one offset in p x offsets.
+            let p = f64::from(share / march.shadow_share).min(1.0);
+            let within = 1.5 / (p * f64::from(offsets));
+            assert!((mean - 1.0).abs() < within, "share {share}: light {mean}");
+        }
+    }
 }
