@@ -164,15 +164,17 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
 /// one, not a number left to chance: independent draws would leave one ray unlit and light
 /// another twice.
 pub(super) struct Strata {
-    /// The offset plus the small shares so far, in units of the shadow share.
-    sum: f32,
+    /// The offset plus the small shares so far, in units of the shadow share, less the whole
+    /// numbers crossed: in [0, 1), where adding a share rounds it to within 2^-24.
+    phase: f32,
 }
 
 impl Strata {
     /// A ray's strata, its offset drawn from `key`.
     pub(super) fn new(key: u64) -> Strata {
         Strata {
-            sum: rng::unit(key) as f32,
+            // A draw just below 1 rounds to 1 in f32: the same phase as 0.
+            phase: (rng::unit(key) as f32).fract(),
         }
     }
 }
@@ -194,11 +196,10 @@ pub(super) fn roulette(
     }
     // Any probability works if it is the one divided by; a floor keeps 1/p finite.
     let p = (share / march.shadow_share).max(1e-6);
-    let before = strata.sum;
-    strata.sum += p;
-    // Whole numbers crossed: p < 1, so at most one (and the sum stays below 2^24 for any
-    // ray of fewer than 16 million samples, where adding p still moves it).
-    if strata.sum.floor() > before.floor() {
+    // A whole number crossed (p < 1: at most one).
+    strata.phase += p;
+    if strata.phase >= 1.0 {
+        strata.phase -= 1.0;
         *cast += 1;
         light() / p
     } else {
@@ -244,7 +245,7 @@ mod tests {
         let mut light = vec![0.0f64; shares.len()];
         for k in 0..offsets {
             let mut strata = Strata {
-                sum: (k as f32 + 0.5) / offsets as f32,
+                phase: (k as f32 + 0.5) / offsets as f32,
             };
             let mut cast = 0u32;
             for (l, &share) in light.iter_mut().zip(&shares) {
