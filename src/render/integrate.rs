@@ -278,13 +278,18 @@ fn scatter(
     let foliage_scatters = part >= m.wood_shown;
     // A leaf's shadow ray leaves the leaf itself, through its own tree as the level's
     // self-shadowing says (clumping, and the hot spot where the sun is behind the eye). Wood
-    // is a solid: its shadow ray leaves from one layer towards the sun, so that the surface
-    // layer the sample stands for does not shadow itself (an opaque volume would otherwise
-    // shade as Lommel-Seeliger's law, half as bright as a surface lit head-on).
+    // is a solid: its shadow ray leaves the surface layer the sample stands for, so that the
+    // layer does not shadow itself (an opaque volume would otherwise shade as
+    // Lommel-Seeliger's law, half as bright as a surface lit head-on). From a point up to one
+    // layer deep, a ray towards a sun at angle theta to the normal leaves after the layer over
+    // cos theta (capped at four layers, where grazing light is faint anyway).
     let p = if foliage_scatters {
         dir * s.ts
     } else {
-        dir * s.ts + sun.direction * s.layer
+        let rise = (-m.gradient_wood)
+            .try_normalize()
+            .map_or(1.0, |n| n.dot(sun.direction).max(0.25));
+        dir * s.ts + sun.direction * (s.layer / rise)
     };
     let lit = if !scene.shadows {
         sun_radiance(scene)

@@ -1290,3 +1290,48 @@ fn a_shared_sun_depth_grid_does_not_depend_on_the_tree_that_built_it() {
         assert_eq!(first(0), first(i), "tree {i} first");
     }
 }
+
+/// Wood shades as a surface whatever the sun's angle: an opaque slab seen head-on and lit from
+/// 0 to 75 degrees off its normal gives Lambert's albedo x cos, averaged over rays (the sample
+/// lies somewhere in its cell, and its shadow ray must leave the slab's surface layer, which
+/// towards a sun at angle theta takes the layer's thickness over cos theta, not one layer).
+#[test]
+fn an_opaque_slab_lit_from_any_angle_gives_the_lambert_radiance_on_average() {
+    let albedo = [0.6, 0.4, 0.2];
+    let texel = uniform_texel(
+        [16, 16, 4],
+        0.25,
+        DVec3::new(-2.0, -2.0, -1.0),
+        200.0,
+        albedo,
+    );
+    for degrees in [0.0f32, 30.0, 60.0, 75.0] {
+        let angle = degrees.to_radians();
+        let sun = Sun {
+            direction: Vec3::new(0.0, angle.sin(), angle.cos()),
+            irradiance: std::f32::consts::PI,
+        };
+        let scene = Scene::new(
+            DVec3::new(0.0, 0.0, 10.0),
+            vec![texel.clone()],
+            vec![look()],
+            &[placed(DVec3::ZERO)],
+            None,
+            Lighting {
+                sun,
+                shading: PLAIN,
+                sky: None,
+            },
+        );
+        let rays = 1000;
+        let mean = (0..rays)
+            .map(|key| f64::from(radiance(&scene, Vec3::NEG_Z, 0.0, key, &March::default()).rgb[0]))
+            .sum::<f64>()
+            / rays as f64;
+        let want = f64::from(albedo[0] * angle.cos());
+        assert!(
+            (mean - want).abs() < 0.01 * want,
+            "sun {degrees} degrees off the normal: {mean} against {want}"
+        );
+    }
+}
