@@ -283,12 +283,16 @@ fn scatter(
     // Lommel-Seeliger's law, half as bright as a surface lit head-on). From a point up to one
     // layer deep, a ray towards a sun at angle theta to the normal leaves after the layer over
     // cos theta (capped at four layers, where grazing light is faint anyway).
+    // The wood's surface normal: where its shadow ray leaves, and how it is shaded.
+    let wood_normal = if foliage_scatters {
+        None
+    } else {
+        (-m.gradient_wood).try_normalize()
+    };
     let p = if foliage_scatters {
         dir * s.ts
     } else {
-        let rise = (-m.gradient_wood)
-            .try_normalize()
-            .map_or(1.0, |n| n.dot(sun.direction).max(0.25));
+        let rise = wood_normal.map_or(1.0, |n| n.dot(sun.direction).max(0.25));
         dir * s.ts + sun.direction * (s.layer / rise)
     };
     let lit = if !scene.shadows {
@@ -336,8 +340,7 @@ fn scatter(
         let n = super::leaves::visible_normal(leaves.map(|v| v / m.foliage), -dir, u);
         shade(scene, albedo, Some(n), lit, -dir)
     } else {
-        let normal = (-m.gradient_wood).try_normalize();
-        shade(scene, albedo, normal, lit, -dir)
+        shade(scene, albedo, wood_normal, lit, -dir)
     }
 }
 

@@ -220,29 +220,37 @@ fn directional_extinction_scales_optical_depth_by_the_form() {
     }
 }
 
-#[test]
-fn an_opaque_slab_lit_head_on_gives_the_lambert_radiance() {
-    // A slab 4 m x 4 m x 1 m, very dense, facing +z; eye and sun on the +z side.
-    let albedo = [0.6, 0.4, 0.2];
+/// The albedo of [`opaque_slab`].
+const SLAB_ALBEDO: [f32; 3] = [0.6, 0.4, 0.2];
+
+/// A slab 4 m x 4 m x 1 m, very dense, facing +z, with the eye 10 m in front of it on +z and
+/// lit by `sun` with plain shading.
+fn opaque_slab(sun: Sun) -> Scene {
     let texel = uniform_texel(
         [16, 16, 4],
         0.25,
         DVec3::new(-2.0, -2.0, -1.0),
         200.0,
-        albedo,
+        SLAB_ALBEDO,
     );
-    let scene = Scene::new(
+    Scene::new(
         DVec3::new(0.0, 0.0, 10.0),
         vec![texel],
         vec![look()],
         &[placed(DVec3::ZERO)],
         None,
         Lighting {
-            sun: HEAD_ON,
+            sun,
             shading: PLAIN,
             sky: None,
         },
-    );
+    )
+}
+
+#[test]
+fn an_opaque_slab_lit_head_on_gives_the_lambert_radiance() {
+    let albedo = SLAB_ALBEDO;
+    let scene = opaque_slab(HEAD_ON);
     // Lambert: albedo x (irradiance / pi) x cos 0 = albedo.
     let r = radiance(&scene, Vec3::NEG_Z, 0.0, 11, &March::default());
     assert!(r.transmittance < 1e-3);
@@ -1297,38 +1305,18 @@ fn a_shared_sun_depth_grid_does_not_depend_on_the_tree_that_built_it() {
 /// towards a sun at angle theta takes the layer's thickness over cos theta, not one layer).
 #[test]
 fn an_opaque_slab_lit_from_any_angle_gives_the_lambert_radiance_on_average() {
-    let albedo = [0.6, 0.4, 0.2];
-    let texel = uniform_texel(
-        [16, 16, 4],
-        0.25,
-        DVec3::new(-2.0, -2.0, -1.0),
-        200.0,
-        albedo,
-    );
     for degrees in [0.0f32, 30.0, 60.0, 75.0] {
         let angle = degrees.to_radians();
-        let sun = Sun {
+        let scene = opaque_slab(Sun {
             direction: Vec3::new(0.0, angle.sin(), angle.cos()),
             irradiance: std::f32::consts::PI,
-        };
-        let scene = Scene::new(
-            DVec3::new(0.0, 0.0, 10.0),
-            vec![texel.clone()],
-            vec![look()],
-            &[placed(DVec3::ZERO)],
-            None,
-            Lighting {
-                sun,
-                shading: PLAIN,
-                sky: None,
-            },
-        );
+        });
         let rays = 1000;
         let mean = (0..rays)
             .map(|key| f64::from(radiance(&scene, Vec3::NEG_Z, 0.0, key, &March::default()).rgb[0]))
             .sum::<f64>()
             / rays as f64;
-        let want = f64::from(albedo[0] * angle.cos());
+        let want = f64::from(SLAB_ALBEDO[0] * angle.cos());
         assert!(
             (mean - want).abs() < 0.01 * want,
             "sun {degrees} degrees off the normal: {mean} against {want}"
