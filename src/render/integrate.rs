@@ -110,6 +110,9 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
     let mut t = 0.0f32;
     let mut segment = 0u64;
     let mut strata = Strata::new(rng::hash3(key, 0, purpose::RAY_ROULETTE));
+    // Where in its segment each sample lies: one sequence along the ray, so that the
+    // samples of successive segments spread evenly rather than at random.
+    let jitter = rng::hash3(key, 0, purpose::SEGMENT_JITTER);
     // With mattes, each segment's trees and their extinctions (`render::matte`).
     let record = matte::recording();
     let mut each = Vec::new();
@@ -136,7 +139,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
             t,
             walk.t_max,
             march.step,
-            rng::hash3(key, segment, purpose::SEGMENT_JITTER),
+            rng::along(jitter, segment, rng::GOLDEN),
         );
         segment += 1;
         let cell_here = walk
@@ -274,8 +277,14 @@ fn scatter(
     let (m, dir, sun) = (s.mix, s.dir, scene.sun);
     let (key, segment) = s.key;
     let shown = m.wood_shown + m.foliage;
-    let part = rng::unit(rng::hash3(key, segment, purpose::SEGMENT_PART)) as f32 * shown;
-    let foliage_scatters = part >= m.wood_shown;
+    // Like the samples' positions, the parts and the leaves follow sequences along the ray.
+    let part = rng::along(
+        rng::hash3(key, 0, purpose::SEGMENT_PART),
+        segment,
+        rng::SILVER,
+    );
+    // Never foliage where there is none (a draw that rounds to 1 in f32 would pick it).
+    let foliage_scatters = m.foliage > 0.0 && part as f32 * shown >= m.wood_shown;
     // A leaf's shadow ray leaves the leaf itself, through its own tree as the level's
     // self-shadowing says (clumping, and the hot spot where the sun is behind the eye). Wood
     // is a solid: its shadow ray leaves the surface layer the sample stands for, so that the
@@ -334,8 +343,7 @@ fn scatter(
         return shade(scene, albedo, None, lit, -dir);
     }
     if foliage_scatters {
-        let leaf_key = rng::hash3(key, segment, purpose::SEGMENT_LEAF);
-        let u = [rng::unit(leaf_key), rng::unit(rng::mix64(leaf_key))].map(|x| x as f32);
+        let u = rng::along2(rng::hash3(key, 0, purpose::SEGMENT_LEAF), segment).map(|x| x as f32);
         let leaves = leaf_moment(scene, active, s.ts);
         let n = super::leaves::visible_normal(leaves.map(|v| v / m.foliage), -dir, u);
         shade(scene, albedo, Some(n), lit, -dir)

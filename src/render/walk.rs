@@ -15,7 +15,6 @@ use super::instances::{Intervals, TreeTransform};
 use super::lod::Draw;
 use super::scene::Scene;
 use crate::geom::Ray;
-use crate::rng;
 
 /// How finely and how far rays are followed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -267,8 +266,8 @@ impl<'a> Walk<'a> {
 }
 
 /// The end of the segment starting at `t` (one step of the finest active texture, cut at the
-/// next event) and the jittered sample position inside it.
-pub(super) fn segment_end(walk: &Walk, t: f32, t_max: f32, step: f32, key: u64) -> (f32, f32) {
+/// next event) and the sample position inside it, a fraction `u` of the way along.
+pub(super) fn segment_end(walk: &Walk, t: f32, t_max: f32, step: f32, u: f64) -> (f32, f32) {
     let mut end = t_max;
     for a in &walk.active {
         end = end.min(t + a.step * step).min(a.exit);
@@ -280,7 +279,7 @@ pub(super) fn segment_end(walk: &Walk, t: f32, t_max: f32, step: f32, key: u64) 
     if end <= t {
         end = t + f32::EPSILON * t.max(1.0);
     }
-    (end, t + rng::unit(key) as f32 * (end - t))
+    (end, t + u as f32 * (end - t))
 }
 
 #[cfg(test)]
