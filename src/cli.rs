@@ -552,7 +552,7 @@ pub struct RenderArgs {
     /// Share of its ray's radiance (of the pixel, at 1 spp) below which a sample's shadow ray
     /// is cast only by Russian roulette (unbiased; larger: faster, noisier; 0 casts them all).
     /// Per ray, not per pixel, so the roulette's noise falls with --spp as the rest does.
-    #[arg(long, default_value_t = 0.05, value_name = "SHARE", value_parser = share)]
+    #[arg(long, default_value_t = 0.2, value_name = "SHARE", value_parser = share)]
     pub shadow_share: f32,
     /// Transmittance below which a view ray goes on only by Russian roulette, past each
     /// segment with probability transmittance / this (unbiased; larger: fewer samples,

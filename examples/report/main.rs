@@ -63,13 +63,14 @@ const VIEWS: [View<'static>; 3] = [
 
 /// Every setting of the texel renderer that trades speed for error, each tried alone at 1 spp
 /// on the default texels, so its cost and gain can be read off against the defaults.
-const SETTINGS: [(&str, &str); 12] = [
+const SETTINGS: [(&str, &str); 13] = [
     ("--step", "0.5"),
     ("--step", "2"),
     ("--cutoff", "0.01"),
     ("--cutoff", "0.0001"),
     ("--shadow-share", "0"),
-    ("--shadow-share", "0.2"),
+    ("--shadow-share", "0.05"),
+    ("--shadow-share", "0.5"),
     ("--view-share", "0"),
     ("--view-share", "0.2"),
     ("--lod-bias", "-1"),

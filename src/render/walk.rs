@@ -32,6 +32,8 @@ pub struct March {
     /// Russian roulette on shadow rays: a sample whose share of its ray (transmittance x
     /// opacity; of the pixel at 1 spp) is below this casts its shadow ray with probability
     /// share / this, and counts it that many times more. Unbiased; 0 casts every shadow ray.
+    /// The default, 0.2, is the fastest at equal error in every view of `make report` (README,
+    /// *Measured*).
     pub shadow_share: f32,
     /// How shadow rays cross the trees' textures. Exact by default here, the estimator the
     /// library's tests hold to analytic answers; `texel render` defaults to cached.
@@ -49,7 +51,7 @@ impl Default for March {
             cutoff: 1e-3,
             lod_bias: 0.0,
             shadow_lod: 0.0,
-            shadow_share: 0.05,
+            shadow_share: 0.2,
             shadows: ShadowRays::Exact,
             view_share: 0.05,
         }
