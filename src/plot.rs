@@ -157,6 +157,9 @@ fn decades(lo: f64, hi: f64) -> (f64, f64) {
 // the x labels and axis name below.
 const LEFT: i64 = 90;
 const TOP: i64 = 50;
+/// The y axis's name sits between the title (rows 10-23) and the top tick's label (from
+/// TOP - 7): it may be wider than the left margin.
+const Y_LABEL: i64 = TOP - 21;
 const BOTTOM: i64 = 70;
 
 const BLACK: [u8; 3] = [0, 0, 0];
@@ -241,7 +244,7 @@ impl Plot {
             .max()
             .unwrap_or(0)
             + 50;
-        text(&mut img, LEFT, 15, &self.title, BLACK);
+        text(&mut img, LEFT, 10, &self.title, BLACK);
         let Some(axes) = self.axes(width, height, legend_w) else {
             return img;
         };
@@ -291,7 +294,7 @@ impl Plot {
             &self.x_label,
             BLACK,
         );
-        text(img, 8, TOP - 26, &self.y_label, BLACK);
+        text(img, 8, Y_LABEL, &self.y_label, BLACK);
     }
 
     /// Each series as a polyline with square markers, and its entry in the legend on the right.
@@ -341,8 +344,8 @@ pub struct Bars {
 impl Bars {
     pub fn draw(&self, width: u32, height: u32) -> RgbImage {
         let mut img = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
-        text(&mut img, LEFT, 15, &self.title, BLACK);
-        text(&mut img, 8, TOP - 26, &self.y_label, BLACK);
+        text(&mut img, LEFT, 10, &self.title, BLACK);
+        text(&mut img, 8, Y_LABEL, &self.y_label, BLACK);
         let legend_w = self
             .series
             .iter()

@@ -868,7 +868,7 @@ fn write_sweep(md: &mut String, dir: &Path, sweep: &[SweepRow]) {
     let plot = Plot {
         title: "far to near, 1 spp: error and time against distance".into(),
         x_label: "distance to the point looked at (m)".into(),
-        y_label: "rmse; seconds / 100".into(),
+        y_label: "rmse, seconds / 100".into(),
         series: vec![
             series("hybrid", 0, &|s| s.hybrid, false),
             series("texel", 1, &|s| s.texel, false),
