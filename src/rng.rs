@@ -34,20 +34,22 @@ pub mod purpose {
     pub const FRAME: u64 = 0x0066_7261_6d65;
     /// XOR-ed into a sample's key to key its ray.
     pub const RAY: u64 = 0x5a;
-    /// Per view-ray segment `hash3(ray key, segment, ..)`: where in the segment the sample is,
-    /// and its shadow ray's own stream.
+    /// The shifts of a view ray's sequences along it (`along`, indexed by segment), drawn once
+    /// per ray as `hash3(ray key, 0, ..)`: where in its segment each sample is, which part of
+    /// a segment's mixture (wood or foliage) scatters its light, and the leaf normal its
+    /// foliage is shaded with (`render::leaves`).
     pub const SEGMENT_JITTER: u64 = 0x72;
-    pub const SEGMENT_LIGHT: u64 = 0x6c;
-    /// The leaf normal a segment's foliage is shaded with (`render::leaves`).
-    pub const SEGMENT_LEAF: u64 = 0x6c66;
-    /// Which part of a segment's mixture (wood or foliage) scatters its light.
     pub const SEGMENT_PART: u64 = 0x7061;
-    /// Whether a view ray whose transmittance has fallen low goes on past a segment.
+    pub const SEGMENT_LEAF: u64 = 0x6c66;
+    /// Per view-ray segment (from 1), `hash3(ray key, segment, ..)`: its shadow ray's own
+    /// stream, and whether a view ray whose transmittance has fallen low goes on past it.
+    pub const SEGMENT_LIGHT: u64 = 0x6c;
     pub const SEGMENT_GO_ON: u64 = 0x676f;
-    /// A view ray's own draws, `hash3(ray key, 0, ..)` with these, which no segment purpose
-    /// equals (a segment index in the middle slot once made the ground's stream that of
-    /// segment 103): the offset of the stratified roulette that decides which of its samples
-    /// cast a shadow ray (`render::sunlight::Strata`), and the terrain hit's shadow ray.
+    /// More of a view ray's own draws, `hash3(ray key, 0, ..)` with these, which no segment
+    /// purpose equals (a segment index in the middle slot once made the ground's stream that
+    /// of segment 103): the offset of the stratified roulette that decides which of its
+    /// samples cast a shadow ray (`render::sunlight::Strata`), and the terrain hit's shadow
+    /// ray.
     pub const RAY_ROULETTE: u64 = 0x7374_7261;
     pub const GROUND_LIGHT: u64 = 0x6772_6c69;
     /// The mesh method: a ray's shadow stream (XOR-ed into its key), which leaves a tree keeps
@@ -92,16 +94,19 @@ pub const GOLDEN: f64 = 0.618_033_988_749_894_9;
 /// sqrt 2 - 1: [`along`]'s step for a second purpose along the same ray, so that its draws do
 /// not move in lockstep with the golden ones.
 pub const SILVER: f64 = 0.414_213_562_373_095_1;
-/// The R2 sequence's steps (Roberts 2018; 1 / g and 1 / g^2 for g the plastic number's
-/// generalisation to two dimensions, g^3 = g + 1): [`along2`]'s, which fill the unit square
-/// as evenly as the golden ratio fills [0, 1).
+/// The R2 sequence's steps (Roberts 2018): 1 / g and 1 / g^2 for g the plastic number
+/// (g^3 = g + 1), the golden ratio's generalisation to two dimensions; [`along2`]'s, which
+/// fill the unit square as evenly as the golden ratio fills [0, 1).
 pub const R2: [f64; 2] = [0.754_877_666_246_692_8, 0.569_840_290_998_053_3];
 
 /// Draw `index` of a randomly shifted Kronecker sequence: frac(shift + index x `step`), the
 /// shift uniform from `key`. Each draw on its own is uniform (the shift is), so an estimate
-/// made from one draw keeps its expectation; successive draws along one key cover [0, 1)
-/// evenly rather than at random (a ray's segments, sampled with them, are stratified across
-/// the ray the way a single segment's jitter is within it).
+/// made from one draw alone keeps its expectation; successive draws along one key cover
+/// [0, 1) evenly rather than at random (a ray's segments, sampled with them, are stratified
+/// across the ray the way a single segment's jitter is within it). Where one draw's estimate
+/// is weighted by what earlier draws of the same key found (a sample by the transmittance
+/// the ray's earlier samples leave), the mean moves by their correlation: for a march, a
+/// little nearer the exact exp(-integral), its samples' optical depths varying less.
 pub fn along(key: u64, index: u64, step: f64) -> f64 {
     let x = unit(key) + (index as f64 * step).fract();
     if x >= 1.0 { x - 1.0 } else { x }
@@ -193,7 +198,7 @@ mod tests {
                 );
             }
         }
-        for key in 0..50u64 {
+        for key in (0..50u64).map(mix64) {
             for step in [GOLDEN, SILVER] {
                 for n in [2usize, 5, 16, 100, 199] {
                     let mut x: Vec<f64> = (0..n as u64).map(|i| along(key, i, step)).collect();

@@ -256,7 +256,8 @@ struct Sample<'a> {
     layer: f32,
     /// Its share of its ray (transmittance before it x its opacity), for the roulette.
     share: f32,
-    /// The ray's key and the segment's index, which key the sample's draws.
+    /// The ray's key and the segment's index (from 1): which element of the ray's sequences
+    /// the sample's part and leaf normal take (`rng::along`), and its shadow ray's key.
     key: (u64, u64),
     draw: &'a Draw,
 }

@@ -135,6 +135,7 @@ pub fn render(
         })
         .collect();
     for (&(tx, ty), pixels) in tiles.iter().zip(done) {
+        debug_assert_eq!(pixels.len(), rows(ty).len() * columns(tx).len());
         let places = rows(ty).flat_map(|y| columns(tx).map(move |x| (x, y)));
         for ((x, y), p) in places.zip(pixels) {
             let i = ((x - x0) + film.width * (y - y0)) as usize;
