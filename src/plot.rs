@@ -125,6 +125,22 @@ fn text_width(s: &str) -> i64 {
     (s.chars().count() as u32 * GLYPH_W) as i64
 }
 
+/// `s` broken at spaces into lines at most `width` pixels wide where its words allow (a word
+/// wider than that stands on a line of its own).
+fn wrap(s: &str, width: i64) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in s.split_whitespace() {
+        match lines.last_mut() {
+            Some(l) if text_width(l) + text_width(" ") + text_width(word) <= width => {
+                l.push(' ');
+                l.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
+}
+
 /// A line `width` pixels thick.
 fn line(img: &mut RgbImage, (x0, y0): (f64, f64), (x1, y1): (f64, f64), c: [u8; 3], width: i64) {
     let steps = (x1 - x0).abs().max((y1 - y0).abs()).ceil().max(1.0) as i64;
@@ -402,13 +418,17 @@ impl Bars {
                 }
             }
             let centre = (x0 + group_w * (g as f64 + 0.5)) as i64;
-            text(
-                &mut img,
-                centre - text_width(name) / 2,
-                y0 as i64 + 10,
-                name,
-                BLACK,
-            );
+            // As many lines as the bottom margin holds, each as wide as the group.
+            let lines = wrap(name, group_w as i64);
+            for (k, l) in lines.iter().take(((BOTTOM - 10) / 15) as usize).enumerate() {
+                text(
+                    &mut img,
+                    centre - text_width(l) / 2,
+                    y0 as i64 + 10 + 15 * k as i64,
+                    l,
+                    BLACK,
+                );
+            }
         }
         for (k, (name, color, _)) in self.series.iter().enumerate() {
             let (lx, ly) = (x1 as i64 + 20, TOP + 24 * k as i64);
@@ -429,6 +449,19 @@ impl Bars {
 
 #[cfg(test)]
 mod tests {
+    /// Labels break at spaces into lines that fit, a word too wide for any standing alone.
+    #[test]
+    fn labels_wrap_at_spaces_to_the_width() {
+        let w = super::text_width;
+        assert_eq!(super::wrap("mesh 1 spp", w("mesh 1 spp")), ["mesh 1 spp"]);
+        assert_eq!(
+            super::wrap("hybrid 1 spp, switch 0.5", w("hybrid 1")),
+            ["hybrid 1", "spp,", "switch", "0.5"]
+        );
+        assert_eq!(super::wrap("overlong", w("over")), ["overlong"]);
+        assert!(super::wrap("", 100).is_empty());
+    }
+
     use super::*;
 
     #[test]
