@@ -449,20 +449,20 @@ impl Bars {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     /// Labels break at spaces into lines that fit, a word too wide for any standing alone.
     #[test]
     fn labels_wrap_at_spaces_to_the_width() {
-        let w = super::text_width;
-        assert_eq!(super::wrap("mesh 1 spp", w("mesh 1 spp")), ["mesh 1 spp"]);
+        let w = text_width;
+        assert_eq!(wrap("mesh 1 spp", w("mesh 1 spp")), ["mesh 1 spp"]);
         assert_eq!(
-            super::wrap("hybrid 1 spp, switch 0.5", w("hybrid 1")),
+            wrap("hybrid 1 spp, switch 0.5", w("hybrid 1")),
             ["hybrid 1", "spp,", "switch", "0.5"]
         );
-        assert_eq!(super::wrap("overlong", w("over")), ["overlong"]);
-        assert!(super::wrap("", 100).is_empty());
+        assert_eq!(wrap("overlong", w("over")), ["overlong"]);
+        assert!(wrap("", 100).is_empty());
     }
-
-    use super::*;
 
     #[test]
     fn series_land_where_their_values_say_on_log_axes() {

@@ -110,9 +110,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
     let mut t = 0.0f32;
     let mut segment = 0u64;
     let mut strata = Strata::new(rng::hash3(key, 0, purpose::RAY_ROULETTE));
-    // Where in its segment each sample lies: one sequence along the ray, so that the
-    // samples of successive segments spread evenly rather than at random.
-    let jitter = rng::hash3(key, 0, purpose::SEGMENT_JITTER);
+    let draws = RayDraws::new(key);
     // With mattes, each segment's trees and their extinctions (`render::matte`).
     let record = matte::recording();
     let mut each = Vec::new();
@@ -134,13 +132,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
                 continue;
             }
         }
-        let (end, ts) = segment_end(
-            &walk,
-            t,
-            walk.t_max,
-            march.step,
-            rng::along(jitter, segment, rng::GOLDEN),
-        );
+        let (end, ts) = segment_end(&walk, t, walk.t_max, march.step, draws.position(segment));
         segment += 1;
         let cell_here = walk
             .active
@@ -168,6 +160,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
             layer: cell_here.max(length),
             share,
             key: (key, segment),
+            draws: &draws,
             draw: &draw,
         };
         let source = scatter(
@@ -256,10 +249,45 @@ struct Sample<'a> {
     layer: f32,
     /// Its share of its ray (transmittance before it x its opacity), for the roulette.
     share: f32,
-    /// The ray's key and the segment's index (from 1): which element of the ray's sequences
-    /// the sample's part and leaf normal take (`rng::along`), and its shadow ray's key.
+    /// The ray's key and the segment's index (from 1): its shadow ray's key, and which
+    /// element of the ray's sequences its part and leaf normal take.
     key: (u64, u64),
+    draws: &'a RayDraws,
     draw: &'a Draw,
+}
+
+/// A view ray's own draws along it: randomly shifted sequences (`rng::along`), each segment
+/// taking its element, so that successive segments' draws spread evenly rather than at random.
+/// The shifts are drawn once per ray.
+struct RayDraws {
+    position: u64,
+    part: u64,
+    leaf: u64,
+}
+
+impl RayDraws {
+    fn new(key: u64) -> RayDraws {
+        RayDraws {
+            position: rng::hash3(key, 0, purpose::SEGMENT_JITTER),
+            part: rng::hash3(key, 0, purpose::SEGMENT_PART),
+            leaf: rng::hash3(key, 0, purpose::SEGMENT_LEAF),
+        }
+    }
+
+    /// Where in segment `n` its sample lies, as a fraction of the segment.
+    fn position(&self, n: u64) -> f64 {
+        rng::along(self.position, n, rng::GOLDEN)
+    }
+
+    /// Which part of sample `n`'s mixture scatters, as a fraction of what shows.
+    fn part(&self, n: u64) -> f64 {
+        rng::along(self.part, n, rng::SILVER)
+    }
+
+    /// Sample `n`'s leaf normal's two numbers (`render::leaves`).
+    fn leaf(&self, n: u64) -> [f32; 2] {
+        rng::along2(self.leaf, n).map(|x| x as f32)
+    }
 }
 
 /// The light a sample sends towards the eye. One part of the mixture scatters it, chosen by
@@ -278,12 +306,7 @@ fn scatter(
     let (m, dir, sun) = (s.mix, s.dir, scene.sun);
     let (key, segment) = s.key;
     let shown = m.wood_shown + m.foliage;
-    // Like the samples' positions, the parts and the leaves follow sequences along the ray.
-    let part = rng::along(
-        rng::hash3(key, 0, purpose::SEGMENT_PART),
-        segment,
-        rng::SILVER,
-    );
+    let part = s.draws.part(segment);
     // Never foliage where there is none (a draw that rounds to 1 in f32 would pick it).
     let foliage_scatters = m.foliage > 0.0 && part as f32 * shown >= m.wood_shown;
     // A leaf's shadow ray leaves the leaf itself, through its own tree as the level's
@@ -344,7 +367,7 @@ fn scatter(
         return shade(scene, albedo, None, lit, -dir);
     }
     if foliage_scatters {
-        let u = rng::along2(rng::hash3(key, 0, purpose::SEGMENT_LEAF), segment).map(|x| x as f32);
+        let u = s.draws.leaf(segment);
         let leaves = leaf_moment(scene, active, s.ts);
         let n = super::leaves::visible_normal(leaves.map(|v| v / m.foliage), -dir, u);
         shade(scene, albedo, Some(n), lit, -dir)
