@@ -52,6 +52,12 @@ pub mod purpose {
     /// ray.
     pub const RAY_ROULETTE: u64 = 0x7374_7261;
     pub const GROUND_LIGHT: u64 = 0x6772_6c69;
+    /// A shadow ray's march through the textures: its stream, `hash3(shadow key, 0, ..)`,
+    /// indexed by instance and segment. Apart from the key itself, which a tree drawn from its
+    /// model lights with the view ray's own key (the mesh method's stream): a march indexed
+    /// from that key would draw the view ray's own sequences' shifts (instance 0, segment
+    /// 114 is `SEGMENT_JITTER`'s slot).
+    pub const SHADOW_MARCH: u64 = 0x6d61_7263;
     /// The mesh method: a ray's shadow stream (XOR-ed into its key), which leaves a tree keeps
     /// at a partial leaf fraction, and alpha-blended triangles.
     pub const MESH_SHADOW: u64 = 0x73;
@@ -263,6 +269,7 @@ mod purposes {
             SEGMENT_GO_ON,
             RAY_ROULETTE,
             GROUND_LIGHT,
+            SHADOW_MARCH,
         ];
         for (i, a) in all.iter().enumerate() {
             assert!(!all[i + 1..].contains(a), "{a:#x} twice");

@@ -66,6 +66,7 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
     let lod_bias = march.lod_bias + march.shadow_lod;
     let mut depth = 0.0f32;
     let mesh_key = rng::mix64(key ^ purpose::MESH_SHADOW);
+    let march_key = rng::hash3(key, 0, purpose::SHADOW_MARCH);
     // A tree drawn from its model for this sample stops the light if the ray hits it.
     let model_blocks = |i: u32, local: &Ray| mesh::blocks(scene, i, local, t_max, mesh_key);
     if cached {
@@ -140,7 +141,8 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                 } else {
                     exit
                 };
-                let ts = t + rng::unit(rng::hash3(key, u64::from(i), segment)) as f32 * (end - t);
+                let ts =
+                    t + rng::unit(rng::hash3(march_key, u64::from(i), segment)) as f32 * (end - t);
                 let d = occupancy.stencils.density_at(level, a.c0 + a.dc * ts);
                 depth += a.extinction(d[0] + foliage * d[1]) * (end - t);
                 if depth > opaque {
