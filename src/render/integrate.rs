@@ -417,6 +417,10 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
         read: false,
     };
     for (k, a) in active.iter().enumerate() {
+        // In a brick the walk has found empty, nothing to read (`Active::empty_until`).
+        if !a.span.0 && ts < a.span.1 {
+            continue;
+        }
         let c = a.c0 + a.dc * ts;
         // Most steps through a crown are in air: one bit says so without reading a cell.
         if !scene.occupancy[a.model as usize][a.level].stencils.holds(c) {
