@@ -52,11 +52,11 @@ pub mod purpose {
     /// ray.
     pub const RAY_ROULETTE: u64 = 0x7374_7261;
     pub const GROUND_LIGHT: u64 = 0x6772_6c69;
-    /// A shadow ray's march through the textures: its stream, `hash3(shadow key, 0, ..)`,
-    /// indexed by instance and segment. Apart from the key itself, which a tree drawn from its
-    /// model lights with the view ray's own key (the mesh method's stream): a march indexed
-    /// from that key would draw the view ray's own sequences' shifts (instance 0, segment
-    /// 114 is `SEGMENT_JITTER`'s slot).
+    /// A shadow ray's march through the textures draws from `hash3(shadow key, 0, ..)`,
+    /// indexed by instance and segment, not from the shadow key itself: a tree drawn from its
+    /// model lights with the view ray's own key (the mesh method's stream), and a march indexed
+    /// from that key drew the view ray's own sequences' shifts (instance 0, segment 114 is
+    /// `SEGMENT_JITTER`'s slot).
     pub const SHADOW_MARCH: u64 = 0x6d61_7263;
     /// The mesh method: a ray's shadow stream (XOR-ed into its key), which leaves a tree keeps
     /// at a partial leaf fraction, and alpha-blended triangles.

@@ -279,7 +279,8 @@ impl Level {
 pub struct Stencils {
     dims: [usize; 3],
     /// The grid's far faces and its last cells' indices, as floats: `holds` is asked at every
-    /// step of every texture a ray is in, and converting them there was a tenth of its work.
+    /// step of every texture a ray is in, and so converts no size (0.995x the demo frame's
+    /// time in pairs, stop 35).
     faces: Vec3,
     last: Vec3,
     bits: Vec<u64>,

@@ -334,10 +334,10 @@ impl Grid {
         grid
     }
 
-    /// Where column `(x, y)`'s depth at layer `z` is kept: in blocks of 2 x 2 x 2, x fastest
-    /// within a block and blocks x fastest, so that a lookup's eight depths lie in one to four
-    /// cache lines (one in four, x0 even and y0 and z0 too), where rows and layers apart
-    /// they lie in four or more.
+    /// Where column `(x, y)`'s depth at layer `z` is kept: in blocks of 2 x 2 x 2 (16 bytes), x
+    /// fastest within a block and blocks x fastest. A lookup's eight depths then lie in one,
+    /// two or four rows of blocks (y0 and z0 even, one of them, neither), 2.4 cache lines on
+    /// average, where rows and layers apart they lie in four.
     #[inline(always)]
     fn place(&self, x: usize, y: usize, z: usize) -> usize {
         let block = ((z >> 1) * self.blocks[1] + (y >> 1)) * self.blocks[0] + (x >> 1);
