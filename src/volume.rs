@@ -278,25 +278,10 @@ impl Level {
 #[derive(Clone, Debug)]
 pub struct Stencils {
     dims: [usize; 3],
-    /// The grid's far faces and its last cells' indices, as floats: `holds` is asked at every
-    /// step of every texture a ray is in, and so converts no size (0.995x the demo frame's
-    /// time in pairs, stop 35).
-    faces: Vec3,
-    last: Vec3,
     bits: Vec<u64>,
 }
 
 impl Stencils {
-    fn new(dims: [usize; 3], bits: Vec<u64>) -> Stencils {
-        let [x, y, z] = dims.map(|n| n as f32);
-        Stencils {
-            dims,
-            faces: Vec3::new(x, y, z),
-            last: Vec3::new(x, y, z) - 1.0,
-            bits,
-        }
-    }
-
     pub fn of(level: &Level) -> Stencils {
         let [nx, ny, nz] = level.dims;
         let filled = |i: usize| level.density[0][i] != 0.0 || level.density[1][i] != 0.0;
@@ -314,12 +299,18 @@ impl Stencils {
                 }
             }
         }
-        Stencils::new(level.dims, bits)
+        Stencils {
+            dims: level.dims,
+            bits,
+        }
     }
 
     /// Every stencil marked as holding density: queries that skip nothing.
     pub fn full(level: &Level) -> Stencils {
-        Stencils::new(level.dims, vec![u64::MAX; level.cell_count().div_ceil(64)])
+        Stencils {
+            dims: level.dims,
+            bits: vec![u64::MAX; level.cell_count().div_ceil(64)],
+        }
     }
 
     /// Whether the trilinear field can be non-zero at `c` (cell units from the grid origin):
@@ -327,14 +318,15 @@ impl Stencils {
     /// nothing, and where the stencil at `c` is empty.
     #[inline]
     pub fn holds(&self, c: Vec3) -> bool {
-        // `inside` and `clamped_axis`'s lower cells, with the grid's sizes as floats at hand:
-        // a point that is not a number fails the first comparison, an infinite one a face.
-        if !(c.cmpge(Vec3::ZERO).all() && c.cmple(self.faces).all()) {
+        let d = self.dims;
+        if !inside(c, d) {
             return false;
         }
-        let lower = (c - 0.5).clamp(Vec3::ZERO, self.last);
-        let (x, y, z) = (lower.x as usize, lower.y as usize, lower.z as usize);
-        let d = self.dims;
+        let (x, y, z) = (
+            clamped_axis(c.x, d[0]).0,
+            clamped_axis(c.y, d[1]).0,
+            clamped_axis(c.z, d[2]).0,
+        );
         let i = x + d[0] * (y + d[1] * z);
         self.bits[i / 64] >> (i % 64) & 1 != 0
     }
