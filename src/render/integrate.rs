@@ -417,8 +417,7 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
         read: false,
     };
     for (k, a) in active.iter().enumerate() {
-        // In a brick the walk has found empty, nothing to read (`Active::empty_until`).
-        if !a.span.0 && ts < a.span.1 {
+        if a.found_empty_at(ts) {
             continue;
         }
         let c = a.c0 + a.dc * ts;

@@ -212,7 +212,7 @@ pub(super) struct Grid {
     /// The depths in units of `unit`, a 65,535th of the grid's deepest (at most
     /// [`DEEPEST`]): 16 bits halve the bytes a lookup pulls through the cache, which is what
     /// a lookup costs, and are exact to half a unit. In blocks of two columns by two by two
-    /// layers ([`Grid::place`]), the face after the layers included.
+    /// layers ([`place`]), the face after the layers included.
     depth: Box<[u16]>,
     /// Blocks across `a` and `b`.
     blocks: [usize; 2],
@@ -305,7 +305,18 @@ impl Grid {
         };
         let per_metre = fine / level.cell as f32;
         let towards = (sun * per_metre).map(|x| if x.abs() < 1e-20 { 1e-20 } else { x });
-        let mut grid = Grid {
+        let blocks = [dims[0].div_ceil(2), dims[1].div_ceil(2)];
+        let layers = dims[2] + 1;
+        let mut blocked = vec![0u16; blocks[0] * blocks[1] * layers.div_ceil(2) * 8];
+        for z in 0..layers {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    let d = depth[x + dims[0] * (y + dims[1] * z)];
+                    blocked[place(blocks, x, y, z)] = (d.min(DEEPEST) / unit + 0.5) as u16;
+                }
+            }
+        }
+        Grid {
             origin,
             per_metre,
             extent: Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32) * fine,
@@ -316,32 +327,10 @@ impl Grid {
             shift,
             lo,
             dims,
-            depth: Box::new([]),
-            blocks: [dims[0].div_ceil(2), dims[1].div_ceil(2)],
+            depth: blocked.into(),
+            blocks,
             unit,
-        };
-        let layers = dims[2] + 1;
-        let mut blocked = vec![0u16; grid.blocks[0] * grid.blocks[1] * layers.div_ceil(2) * 8];
-        for z in 0..layers {
-            for y in 0..dims[1] {
-                for x in 0..dims[0] {
-                    let d = depth[x + dims[0] * (y + dims[1] * z)];
-                    blocked[grid.place(x, y, z)] = (d.min(DEEPEST) / unit + 0.5) as u16;
-                }
-            }
         }
-        grid.depth = blocked.into();
-        grid
-    }
-
-    /// Where column `(x, y)`'s depth at layer `z` is kept: in blocks of 2 x 2 x 2 (16 bytes), x
-    /// fastest within a block and blocks x fastest. A lookup's eight depths then lie in one,
-    /// two or four rows of blocks (y0 and z0 even, one of them, neither), 2.4 cache lines on
-    /// average, where rows and layers apart they lie in four.
-    #[inline(always)]
-    fn place(&self, x: usize, y: usize, z: usize) -> usize {
-        let block = ((z >> 1) * self.blocks[1] + (y >> 1)) * self.blocks[0] + (x >> 1);
-        block * 8 + ((z & 1) << 2 | (y & 1) << 1 | (x & 1))
     }
 
     /// The depth from the model-space point `p` towards the sun to beyond the grid: read at
@@ -372,7 +361,7 @@ impl Grid {
             std::array::from_fn(|i| clamped_axis(x[i], self.dims[i]));
         let d = &self.depth;
         let layer = |z: usize| {
-            let at = |x: usize, y: usize| f32::from(d[self.place(x, y, z)]);
+            let at = |x: usize, y: usize| f32::from(d[place(self.blocks, x, y, z)]);
             let row = |y: usize| at(x0, y) * (1.0 - fx) + at(x1, y) * fx;
             row(y0) * (1.0 - fy) + row(y1) * fy
         };
@@ -405,6 +394,17 @@ impl Grid {
     pub(super) fn bytes(&self) -> usize {
         std::mem::size_of_val(&self.depth[..])
     }
+}
+
+/// Where a grid of `blocks` (across `a` and `b`) keeps column `(x, y)`'s depth at layer `z`:
+/// in blocks of 2 x 2 x 2 (16 bytes), x fastest within a block and blocks x fastest. By the
+/// layout's arithmetic a lookup's eight depths lie in one, two or four rows of blocks (y0 and
+/// z0 even, one of them, neither), about 2.4 cache lines, where rows and layers apart they
+/// lie in four.
+#[inline(always)]
+fn place(blocks: [usize; 2], x: usize, y: usize, z: usize) -> usize {
+    let block = ((z >> 1) * blocks[1] + (y >> 1)) * blocks[0] + (x >> 1);
+    block * 8 + ((z & 1) << 2 | (y & 1) << 1 | (x & 1))
 }
 
 /// The trilinear field of a level's combined extinction in one plane across axis `k`, as a

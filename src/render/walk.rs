@@ -182,6 +182,14 @@ impl Active {
         }
         (!self.span.0).then_some(self.span.1)
     }
+
+    /// Whether the walk has already found this texture's brick empty at `t` (at or after the
+    /// point `empty_until` last looked from): a sample there reads nothing of it, and need not
+    /// look at its cells' bits.
+    #[inline]
+    pub(super) fn found_empty_at(&self, t: f32) -> bool {
+        !self.span.0 && t < self.span.1
+    }
 }
 
 /// The front-to-back walk of the instances along one ray: which are active (the ray is inside
