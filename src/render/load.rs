@@ -8,6 +8,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 
 use super::scene::TreeMesh;
 use super::{Look, Placed};
@@ -317,7 +318,7 @@ fn tree_meshes(
     limits: &Limits,
     dependencies: &mut Vec<PathBuf>,
 ) -> Result<Vec<TreeMesh>, LoadError> {
-    let mut meshes = Vec::new();
+    let mut models = Vec::new();
     for (t, path) in texels.iter().zip(paths) {
         let dir = path.parent().unwrap_or(Path::new(""));
         if t.info.sources.is_empty() {
@@ -336,9 +337,13 @@ fn tree_meshes(
         let foliage = bake::foliage_triangles(&m.mesh, &t.info.parameters)
             .map_err(|e| file_error(path, e))?;
         dependencies.extend(files);
-        meshes.push(TreeMesh::new(m.mesh, foliage));
+        models.push((m.mesh, foliage));
     }
-    Ok(meshes)
+    // Their hierarchies are built side by side, each the same whichever thread builds it.
+    Ok(models
+        .into_par_iter()
+        .map(|(mesh, foliage)| TreeMesh::new(mesh, foliage))
+        .collect())
 }
 
 impl LoadedScene {

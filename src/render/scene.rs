@@ -236,22 +236,31 @@ impl Scene {
             .iter()
             .map(|p| p.transform(looks[p.look as usize].texel as u32, origin))
             .collect();
-        let occupancy = texels
-            .iter()
-            .map(|t| t.levels.iter().map(Occupancy::of).collect())
-            .collect();
-        let cells: Vec<f32> = texels.iter().map(|t| t.levels[0].cell as f32).collect();
-        let instances = Instances::new(instances, model_boxes, &cells);
+        // The terrain's hierarchy and the trees' are built side by side: each alone is the
+        // same whichever thread builds it, and a frame of a sequence builds both anew.
+        let (ground, (occupancy, instances, sun_beam)) = rayon::join(
+            || ground.map(|m| Ground::new(m, origin, sun.direction)),
+            || {
+                let occupancy: Vec<Vec<Occupancy>> = texels
+                    .iter()
+                    .map(|t| t.levels.iter().map(Occupancy::of).collect())
+                    .collect();
+                let cells: Vec<f32> = texels.iter().map(|t| t.levels[0].cell as f32).collect();
+                let instances = Instances::new(instances, model_boxes, &cells);
+                let sun_beam = instances::Beam::new(&instances, sun.direction);
+                (occupancy, instances, sun_beam)
+            },
+        );
         let sun_depth = SunDepth::new(&instances, &looks, &texels);
         Scene {
             origin,
             texels,
             occupancy,
             looks,
-            sun_beam: instances::Beam::new(&instances, sun.direction),
+            sun_beam,
             instances,
             meshes: Vec::new(),
-            ground: ground.map(|m| Ground::new(m, origin, sun.direction)),
+            ground,
             sun,
             shading,
             sky,
