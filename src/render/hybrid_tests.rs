@@ -426,3 +426,53 @@ fn a_far_sample_is_drawn_from_textures_only_where_every_tree_is_one() {
     }
     assert!(plain > 10 && hybrid > 10, "{plain} plain, {hybrid} hybrid");
 }
+
+/// The frame's choices (`Scene::choose`) are the footprint rule's, tree by tree, in and out
+/// of the band; and a drawing other than the one chosen for (another footprint, another key)
+/// is still drawn by the rule, not by the table.
+#[test]
+fn a_frames_choices_are_the_footprint_rules() {
+    let mut s = crate::rng::Stream::new(11, 0);
+    let mut u = || s.unit();
+    let trees: Vec<Placed> = (0..300)
+        .map(|_| {
+            let (r, a) = (10.0 + u() * 300.0, u() * std::f64::consts::TAU);
+            Placed {
+                look: 0,
+                position: DVec3::new(r * a.cos(), u() * 10.0, r * a.sin()),
+                rotation: (u() * std::f64::consts::TAU) as f32,
+                scale: (0.3 + u() * 3.0) as f32,
+            }
+        })
+        .collect();
+    let (mut texture, mut model, mut band, mut keys_differ) = (0, 0, 0, 0);
+    for spread in (0..12).map(|k| 2e-4f32 * 1.5f32.powi(k)) {
+        for lod in SETTINGS {
+            let scene = boxed_forest(DVec3::new(0.0, 5.0, 0.0), &trees);
+            let draw = Draw::hybrid(lod, spread, 7);
+            let other = Draw::hybrid(lod, spread, 8);
+            let rule = |d: &Draw| -> Vec<(bool, bool)> {
+                (0..scene.instances.len() as u32)
+                    .map(|i| (d.texel(&scene, i), d.in_band(&scene, i)))
+                    .collect()
+            };
+            let (want, want_other) = (rule(&draw), rule(&other));
+            keys_differ += want.iter().zip(&want_other).filter(|(a, b)| a != b).count();
+            scene.choose(&draw);
+            assert!(scene.choices.get().is_some());
+            assert_eq!(rule(&draw), want, "spread {spread}, {lod:?}");
+            assert_eq!(rule(&other), want_other, "spread {spread}, {lod:?}");
+            for (t, b) in want {
+                texture += usize::from(t);
+                model += usize::from(!t);
+                band += usize::from(b);
+            }
+        }
+    }
+    assert!(
+        texture > 1000 && model > 1000 && band > 300,
+        "{texture} {model} {band}"
+    );
+    // The other key draws some band trees the other way: a table read for it would show.
+    assert!(keys_differ > 50, "{keys_differ}");
+}

@@ -11,6 +11,11 @@
 //! linearly in log footprint from 0 to 1 across the band, so a moving camera sees trees fade
 //! from one representation to the other instead of popping, and the expected image in the
 //! band is the blend of the two.
+//!
+//! Every sample of a frame has the same footprint and band key, so each tree's choice is the
+//! frame's: `render` works them all out once (`Scene::choose`), and a ray looks them up.
+
+use rayon::prelude::*;
 
 use super::scene::Scene;
 use crate::rng::{self, purpose};
@@ -142,6 +147,38 @@ impl Draw {
     /// texture or its model by chance, not by its footprint alone.
     #[inline]
     pub fn in_band(&self, scene: &Scene, i: u32) -> bool {
+        match self.chosen(scene) {
+            Some(c) => c.per_instance[i as usize] & IN_BAND != 0,
+            None => self.in_band_by_footprint(scene, i),
+        }
+    }
+
+    /// Whether instance `i` is drawn from its texture for this sample.
+    #[inline]
+    pub fn texel(&self, scene: &Scene, i: u32) -> bool {
+        match self.chosen(scene) {
+            Some(c) => c.per_instance[i as usize] & TEXTURE != 0,
+            None => self.texel_by_footprint(scene, i),
+        }
+    }
+
+    /// The scene's choices for the frame ([`Scene::choose`]), where this is the drawing they
+    /// were worked out for.
+    #[inline]
+    fn chosen<'s>(&self, scene: &'s Scene) -> Option<&'s Choices> {
+        let Draw::Hybrid {
+            lod, spread, key, ..
+        } = *self
+        else {
+            return None;
+        };
+        scene
+            .choices
+            .get()
+            .filter(|c| c.lod == lod && c.spread == spread && c.key == key)
+    }
+
+    fn in_band_by_footprint(&self, scene: &Scene, i: u32) -> bool {
         match *self {
             Draw::Texel | Draw::Mesh => false,
             Draw::Hybrid {
@@ -153,9 +190,7 @@ impl Draw {
         }
     }
 
-    /// Whether instance `i` is drawn from its texture for this sample.
-    #[inline]
-    pub fn texel(&self, scene: &Scene, i: u32) -> bool {
+    fn texel_by_footprint(&self, scene: &Scene, i: u32) -> bool {
         match *self {
             Draw::Texel => true,
             Draw::Mesh => false,
@@ -171,5 +206,56 @@ impl Draw {
                         && (rng::unit(rng::hash3(key, u64::from(i), purpose::LOD)) as f32) < p)
             }
         }
+    }
+}
+
+/// [`Choices::per_instance`]' bits: drawn from the texture, and in the transition band.
+const TEXTURE: u8 = 1;
+const IN_BAND: u8 = 2;
+
+/// How one hybrid drawing draws every tree of a frame. Every sample of a frame draws alike
+/// (one footprint per sample, one key for the band's draws), so the choice of each tree is the
+/// frame's: worked out once here, it is a byte's lookup for each of the many rays, view and
+/// shadow, that meet the tree, where each worked it out again (a twentieth of a near frame).
+pub struct Choices {
+    lod: Lod,
+    spread: f32,
+    key: u64,
+    /// Per instance, [`TEXTURE`] and [`IN_BAND`].
+    per_instance: Vec<u8>,
+}
+
+impl Draw {
+    /// This drawing's choice for every tree of `scene`, if it chooses tree by tree (a hybrid
+    /// drawing).
+    pub(super) fn choices(&self, scene: &Scene) -> Option<Choices> {
+        let Draw::Hybrid {
+            lod, spread, key, ..
+        } = *self
+        else {
+            return None;
+        };
+        let per_instance = (0..scene.instances.len() as u32)
+            .into_par_iter()
+            .map(|i| {
+                let texture = if self.texel_by_footprint(scene, i) {
+                    TEXTURE
+                } else {
+                    0
+                };
+                let band = if self.in_band_by_footprint(scene, i) {
+                    IN_BAND
+                } else {
+                    0
+                };
+                texture | band
+            })
+            .collect();
+        Some(Choices {
+            lod,
+            spread,
+            key,
+            per_instance,
+        })
     }
 }

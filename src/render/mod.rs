@@ -116,6 +116,9 @@ pub fn render(
     // which picks the mip level, is the stratum's. More samples then read finer levels, and
     // the image converges to the finest level's, not to the pixel-sized level's bias.
     let spread = camera.pixel_angle() as f32 / strata as f32;
+    if settings.method == Method::Hybrid {
+        scene.choose(&lod::Draw::hybrid(settings.lod, spread, lod_key(settings)).simplified(scene));
+    }
     // Each tile's pixels in the tile's row order: the pixel's place is implicit, and a pixel
     // holds only what the film keeps (at 1920 x 1080 the tiles' pixels are the run's largest
     // allocation: 257 MB when each carried its place and its first sample's whole radiance).
@@ -178,6 +181,11 @@ struct Pixel {
     mattes: Option<Box<Mattes>>,
 }
 
+/// Keys the hybrid method's draw of each tree in the band (`RenderSettings::lod_seed`).
+fn lod_key(settings: &RenderSettings) -> u64 {
+    rng::hash3(settings.lod_seed, 0, rng::purpose::LOD)
+}
+
 /// The mean of `spp` samples, jittered within a `strata` x `strata` grid over the pixel.
 fn pixel(
     scene: &Scene,
@@ -208,17 +216,14 @@ fn pixel(
         let r = match settings.method {
             Method::Texel => integrate::radiance(scene, dir, spread, ray_key, &settings.march),
             Method::Mesh => mesh::radiance(scene, dir, ray_key),
-            Method::Hybrid => {
-                let lod_key = rng::hash3(settings.lod_seed, 0, rng::purpose::LOD);
-                integrate::hybrid(
-                    scene,
-                    dir,
-                    spread,
-                    (ray_key, lod_key),
-                    &settings.march,
-                    settings.lod,
-                )
-            }
+            Method::Hybrid => integrate::hybrid(
+                scene,
+                dir,
+                spread,
+                (ray_key, lod_key(settings)),
+                &settings.march,
+                settings.lod,
+            ),
         };
         for c in 0..3 {
             rgba[c] += r.rgb[c];

@@ -1,6 +1,8 @@
 //! What the renderer draws, in its own frame (world minus the eye, f32): the trees as
 //! instances of textures, the terrain as triangles, the sun and the shading constants.
 
+use std::sync::OnceLock;
+
 use glam::{DVec3, Vec3};
 
 use crate::geom::{
@@ -10,6 +12,7 @@ use crate::import::Mesh;
 use crate::volume::{Occupancy, Texel};
 
 use super::instances::{self, Instances, TreeTransform};
+use super::lod::{Choices, Draw};
 use super::sun_depth::SunDepth;
 
 /// How a species looks on the rendered day.
@@ -204,6 +207,8 @@ pub struct Scene {
     pub shadows: bool,
     /// The trees' optical depth towards the sun, per level, built as shadow rays need it.
     pub sun_depth: SunDepth,
+    /// How the frame's hybrid drawing draws each tree, worked out once ([`Scene::choose`]).
+    pub(super) choices: OnceLock<Choices>,
 }
 
 impl Scene {
@@ -266,6 +271,20 @@ impl Scene {
             sky,
             shadows: true,
             sun_depth,
+            choices: OnceLock::new(),
+        }
+    }
+
+    /// Works out once how `draw` draws each tree, for every ray of the frame that draws as it
+    /// does (a frame's samples share their footprint and their band's key): a lookup then,
+    /// where each ray would work out the choice for every tree it meets. The first drawing
+    /// given is kept; any other is worked out ray by ray.
+    pub fn choose(&self, draw: &Draw) {
+        if self.choices.get().is_none()
+            && let Some(c) = draw.choices(self)
+        {
+            // Another thread choosing at once would set the same.
+            let _ = self.choices.set(c);
         }
     }
 
