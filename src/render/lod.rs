@@ -225,25 +225,25 @@ pub struct Choices {
     per_instance: Vec<u8>,
 }
 
-impl Draw {
-    /// This drawing's choice for every tree of `scene`, if it chooses tree by tree (a hybrid
+impl Choices {
+    /// `draw`'s choice for every tree of `scene`, if it chooses tree by tree (a hybrid
     /// drawing).
-    pub(super) fn choices(&self, scene: &Scene) -> Option<Choices> {
+    pub(super) fn of(draw: &Draw, scene: &Scene) -> Option<Choices> {
         let Draw::Hybrid {
             lod, spread, key, ..
-        } = *self
+        } = *draw
         else {
             return None;
         };
         let per_instance = (0..scene.instances.len() as u32)
             .into_par_iter()
             .map(|i| {
-                let texture = if self.texel_by_footprint(scene, i) {
+                let texture = if draw.texel_by_footprint(scene, i) {
                     TEXTURE
                 } else {
                     0
                 };
-                let band = if self.in_band_by_footprint(scene, i) {
+                let band = if draw.in_band_by_footprint(scene, i) {
                     IN_BAND
                 } else {
                     0

@@ -281,7 +281,7 @@ impl Scene {
     /// given is kept; any other is worked out ray by ray.
     pub fn choose(&self, draw: &Draw) {
         if self.choices.get().is_none()
-            && let Some(c) = draw.choices(self)
+            && let Some(c) = Choices::of(draw, self)
         {
             // Another thread choosing at once would set the same.
             let _ = self.choices.set(c);
