@@ -386,24 +386,10 @@ fn every_tree_drawn_as_a_model_lies_within_the_model_horizon() {
 /// never taken nor taken where a tree could still be a model.
 #[test]
 fn a_far_sample_is_drawn_from_textures_only_where_every_tree_is_one() {
-    let mut s = crate::rng::Stream::new(8, 0);
-    let mut u = || s.unit();
-    // A ring of trees 60 to 300 m from the eye, large and small.
-    let trees: Vec<Placed> = (0..200)
-        .map(|k| {
-            let (r, a) = (60.0 + u() * 240.0, u() * std::f64::consts::TAU);
-            Placed {
-                look: 0,
-                position: DVec3::new(r * a.cos(), u() * 10.0, r * a.sin()),
-                rotation: (u() * std::f64::consts::TAU) as f32,
-                scale: if k == 0 {
-                    3.3
-                } else {
-                    (0.3 + u() * 3.0) as f32
-                },
-            }
-        })
-        .collect();
+    // A ring of trees 60 to 300 m from the eye, large and small; the first at the largest
+    // scale, whose cells set the horizon.
+    let mut trees = ring_of_trees(8, 200, 60.0..300.0);
+    trees[0].scale = 3.3;
     let scene = boxed_forest(DVec3::new(0.0, 5.0, 0.0), &trees);
     let (mut plain, mut hybrid) = (0, 0);
     for spread in (0..60).map(|k| 1e-4f32 * 1.15f32.powi(k)) {
@@ -432,19 +418,7 @@ fn a_far_sample_is_drawn_from_textures_only_where_every_tree_is_one() {
 /// is still drawn by the rule, not by the table.
 #[test]
 fn a_frames_choices_are_the_footprint_rules() {
-    let mut s = crate::rng::Stream::new(11, 0);
-    let mut u = || s.unit();
-    let trees: Vec<Placed> = (0..300)
-        .map(|_| {
-            let (r, a) = (10.0 + u() * 300.0, u() * std::f64::consts::TAU);
-            Placed {
-                look: 0,
-                position: DVec3::new(r * a.cos(), u() * 10.0, r * a.sin()),
-                rotation: (u() * std::f64::consts::TAU) as f32,
-                scale: (0.3 + u() * 3.0) as f32,
-            }
-        })
-        .collect();
+    let trees = ring_of_trees(11, 300, 10.0..310.0);
     let (mut texture, mut model, mut band, mut keys_differ) = (0, 0, 0, 0);
     for spread in (0..12).map(|k| 2e-4f32 * 1.5f32.powi(k)) {
         for lod in SETTINGS {
@@ -475,4 +449,23 @@ fn a_frames_choices_are_the_footprint_rules() {
     );
     // The other key draws some band trees the other way: a table read for it would show.
     assert!(keys_differ > 50, "{keys_differ}");
+}
+
+/// `count` boxed trees around the eye's foot, `distance` metres from it (uniformly), at any
+/// turn, scales 0.3 to 3.3, drawn from stream `seed`.
+fn ring_of_trees(seed: u64, count: usize, distance: std::ops::Range<f64>) -> Vec<Placed> {
+    let mut s = crate::rng::Stream::new(seed, 0);
+    let mut u = || s.unit();
+    (0..count)
+        .map(|_| {
+            let r = distance.start + u() * (distance.end - distance.start);
+            let a = u() * std::f64::consts::TAU;
+            Placed {
+                look: 0,
+                position: DVec3::new(r * a.cos(), u() * 10.0, r * a.sin()),
+                rotation: (u() * std::f64::consts::TAU) as f32,
+                scale: (0.3 + u() * 3.0) as f32,
+            }
+        })
+        .collect()
 }

@@ -216,7 +216,8 @@ const IN_BAND: u8 = 2;
 /// How one hybrid drawing draws every tree of a frame. Every sample of a frame draws alike
 /// (one footprint per sample, one key for the band's draws), so the choice of each tree is the
 /// frame's: worked out once here, it is a byte's lookup for each of the many rays, view and
-/// shadow, that meet the tree, where each worked it out again (a twentieth of a near frame).
+/// shadow, that meet the tree, where each worked it out again (6% of a one-thread near frame
+/// at 480 x 270 in `perf`, with its logarithm).
 pub struct Choices {
     lod: Lod,
     spread: f32,
