@@ -498,6 +498,12 @@ pub struct RenderArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=65536))]
     pub spp: u32,
+    /// Send each sample's ray through a random point of its share of the pixel rather than
+    /// its centre: unbiased (renders with different seeds average to the true image, as a
+    /// reference must), but noisier at any --spp. Without it, samples sit at the centres of
+    /// a grid of equal cells over the pixel.
+    #[arg(long)]
+    pub jitter: bool,
     /// What draws the trees: their 3D textures, the glTF models the textures were baked
     /// from (the conventional method; the ground truth at many samples per pixel), or each
     /// tree whichever of the two its footprint needs. Default: hybrid, or texel (with a

@@ -41,6 +41,11 @@ pub fn run(report: &Report, forest: &str, dir: &Path) -> (Vec<Flicker>, String) 
         ("mesh 16 spp", &["--method", "mesh", "--spp", "16"][..]),
         ("texel 1 spp", &["--method", "texel"][..]),
         ("hybrid 1 spp", &["--method", "hybrid"][..]),
+        // Each sample through a random point of its pixel, not its centre (before stop 37).
+        (
+            "hybrid 1 spp, jittered",
+            &["--method", "hybrid", "--jitter"][..],
+        ),
         // Models only where a tree's footprint is under half a cell: fewer, less aliased.
         (
             "hybrid 1 spp, switch 0.5",

@@ -369,6 +369,7 @@ fn settings(args: &RenderArgs, method: MethodArg) -> RenderSettings {
             MethodArg::Hybrid => Method::Hybrid,
         },
         spp: args.spp,
+        jitter: args.jitter,
         march: March {
             step: args.step,
             cutoff: args.cutoff,

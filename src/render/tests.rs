@@ -412,6 +412,90 @@ fn the_stratified_estimator_converges_as_samples_grow() {
     assert!(errors[2] < 0.5 * errors[0], "{errors:?}");
 }
 
+/// A pixel's strata have equal areas and tile it for every count of samples, as nearly square
+/// as the count allows, and a jittered sample stays in the stratum whose centre the centred
+/// one takes. (Before, `spp` not a square left strata empty: at 2 spp both samples lay in the
+/// pixel's top half.)
+#[test]
+fn the_strata_tile_the_pixel_with_equal_areas_for_any_count() {
+    for spp in (1..=50).chain([64, 97, 256, 1000, 65521, 65536]) {
+        let strata = super::Strata::new(spp);
+        let (c, r) = (strata.columns, strata.rows);
+        assert_eq!(c * r, spp, "{spp}: {strata:?}");
+        assert!(r <= c, "{spp}: {strata:?}");
+        // As square as can be: no divisor of spp lies between the rows and its square root.
+        assert!(
+            ((r + 1)..=spp.isqrt()).all(|d| !spp.is_multiple_of(d)),
+            "{spp}: {strata:?}"
+        );
+        let mut seen = vec![false; spp as usize];
+        for s in 0..spp {
+            let (u, v) = strata.place(s, None);
+            let cell = |u: f64, v: f64| {
+                ((v * r as f64).floor() as u32 * c + (u * c as f64).floor() as u32) as usize
+            };
+            let i = cell(u, v);
+            assert!(!seen[i], "{spp}: sample {s} in a stratum already taken");
+            seen[i] = true;
+            // Within the stratum, to the rounding of (i + u) / columns.
+            let within = |a: f64, centre: f64, n: u32| (a - centre).abs() * n as f64 <= 0.5 + 1e-9;
+            for key in [1u64, 2, 3, 0xdead_beef] {
+                let (ju, jv) = strata.place(s, Some(rng::mix64(key ^ u64::from(s))));
+                assert!((0.0..=1.0).contains(&ju) && (0.0..=1.0).contains(&jv));
+                assert!(
+                    within(ju, u, c) && within(jv, v, r),
+                    "{spp}: sample {s} jittered out of its stratum"
+                );
+            }
+        }
+    }
+}
+
+/// Centred samples (the default) against jittered ones, on a volume whose texture the
+/// footprint's level smooths: the midpoint rule's error is second order in the stratum's size,
+/// a jittered sample's noise first order, so the centred image lies nearer the unbiased
+/// (jittered) 256-spp reference than jittered images with any of four seeds: by more than a
+/// fifth at 1 spp (measured 0.057 against 0.077-0.083), and still below at 4 (0.028 against
+/// 0.031-0.033), where the ray's own draws are most of what is left.
+#[test]
+fn centred_samples_are_nearer_the_reference_than_jittered_ones_on_a_smooth_volume() {
+    let (scene, camera) = fog_ball();
+    let image = |spp: u32, jitter: bool, seed: u64| {
+        render(
+            &scene,
+            &camera,
+            &RenderSettings {
+                spp,
+                jitter,
+                seed,
+                ..RenderSettings::default()
+            },
+            &|_| {},
+        )
+    };
+    let reference = image(256, true, 99);
+    let error = |f: &super::Film| {
+        let e: f64 = f
+            .rgba
+            .iter()
+            .zip(&reference.rgba)
+            .map(|(a, b)| (0..4).map(|c| ((a[c] - b[c]) as f64).powi(2)).sum::<f64>())
+            .sum();
+        (e / f.rgba.len() as f64).sqrt()
+    };
+    for spp in [1, 4] {
+        let centred = error(&image(spp, false, 0));
+        let jittered: Vec<f64> = (1..=4).map(|seed| error(&image(spp, true, seed))).collect();
+        println!("{spp} spp: centred {centred:.5}, jittered {jittered:.5?}");
+        let best = jittered.iter().copied().fold(f64::INFINITY, f64::min);
+        let margin = if spp == 1 { 0.8 } else { 1.0 };
+        assert!(
+            centred < margin * best,
+            "{spp} spp: {centred} against {jittered:?}"
+        );
+    }
+}
+
 /// Jumping over empty bricks skips only whole segments that hold nothing, with their random
 /// draws, and a step whose trilinear stencils are all empty reads no cell: the same image (to
 /// rounding), for one dense cell alone in a large empty box (500x fewer samples read a
