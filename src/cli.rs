@@ -495,7 +495,8 @@ pub struct RenderArgs {
     /// Image height in pixels.
     #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=65535))]
     pub height: u32,
-    /// Samples per pixel.
+    /// Samples per pixel: one in each of as many cells of equal area over the pixel, as square a
+    /// grid as the count allows (16: 4 x 4; 6: 2 x 3).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=65536))]
     pub spp: u32,
     /// Send each sample's ray through a random point of its share of the pixel rather than
