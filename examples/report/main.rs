@@ -794,16 +794,22 @@ fn write_csv(dir: &Path, rows: &[Row]) {
     std::fs::write(dir.join("speed_vs_error.csv"), csv).unwrap();
 }
 
+/// `method`'s curve in `view` with its default settings: (seconds, error) at each spp, the
+/// rows with a setting (`--jitter`, `--step 2`, ...) left out.
+fn curve(rows: &[Row], view: &str, method: &str) -> Vec<(f64, f64)> {
+    rows.iter()
+        .filter(|r| r.view == view && r.method == method && r.setting.is_empty())
+        .map(|r| (r.seconds, r.rmse))
+        .collect()
+}
+
 /// Per default hybrid render of `view`: its time and error, and each pure method's time at
 /// that error.
 fn write_hybrid_ratios(md: &mut String, view: &str, rows: &[Row]) {
-    let curve = |method: &str| -> Vec<(f64, f64)> {
-        rows.iter()
-            .filter(|r| r.view == view && r.method == method && r.setting.is_empty())
-            .map(|r| (r.seconds, r.rmse))
-            .collect()
-    };
-    let (mesh, texel) = (curve("mesh"), curve("texel transmittance 32"));
+    let (mesh, texel) = (
+        curve(rows, view, "mesh"),
+        curve(rows, view, "texel transmittance 32"),
+    );
     for r in rows
         .iter()
         .filter(|r| r.view == view && r.method == "hybrid" && r.setting.is_empty())
@@ -860,14 +866,9 @@ fn write_hybrid_settings(md: &mut String, view: &str, rows: &[Row]) {
 /// Each hybrid setting row of `view`, with the default hybrid's time at its error and that
 /// time over the setting's.
 fn hybrid_settings<'r>(view: &str, rows: &'r [Row]) -> Vec<(&'r Row, Option<f64>, Option<f64>)> {
-    let hybrid = |r: &&Row| r.view == view && r.method == "hybrid";
-    let default: Vec<(f64, f64)> = rows
-        .iter()
-        .filter(|r| hybrid(r) && r.setting.is_empty())
-        .map(|r| (r.seconds, r.rmse))
-        .collect();
+    let default = curve(rows, view, "hybrid");
     rows.iter()
-        .filter(|r| hybrid(r) && !r.setting.is_empty())
+        .filter(|r| r.view == view && r.method == "hybrid" && !r.setting.is_empty())
         .map(|r| {
             let d = mesh_time_at(&default, r.rmse);
             (r, d, d.map(|d| d / r.seconds))
@@ -981,11 +982,7 @@ fn same_image_note(rows: &[Row], r: &Row) -> String {
 /// The headline's row for `view`: the paper's claim, how much faster the texel method is than
 /// the mesh at equal error, and the error the texel method cannot get below.
 fn write_headline(md: &mut String, view: &str, rows: &[Row]) {
-    let mesh: Vec<(f64, f64)> = rows
-        .iter()
-        .filter(|r| r.view == view && r.method == "mesh" && r.setting.is_empty())
-        .map(|r| (r.seconds, r.rmse))
-        .collect();
+    let mesh = curve(rows, view, "mesh");
     let texels: Vec<&Row> = rows
         .iter()
         .filter(|r| r.view == view && r.method.starts_with("texel"))
@@ -1076,11 +1073,7 @@ fn speed_vs_error_plot(view: &str, rows: &[Row]) -> Plot {
             .map(|(k, m)| Series {
                 name: m.to_string(),
                 color: PALETTE[k % PALETTE.len()],
-                points: rows
-                    .iter()
-                    .filter(|r| r.view == view && r.setting.is_empty() && r.method == *m)
-                    .map(|r| (r.seconds, r.rmse))
-                    .collect(),
+                points: curve(rows, view, m),
             })
             .collect(),
     }
