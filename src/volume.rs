@@ -463,7 +463,9 @@ impl Occupancy {
         let mut delta = [f32::INFINITY; 3];
         let mut step = [0i64; 3];
         for a in 0..3 {
-            idx[a] = (p[a].floor() as i64).clamp(0, self.dims[a] as i64 - 1);
+            // Truncation, not floor: they differ only below 0, which clamps to 0 either way
+            // (and floor is a call into libm on baseline x86-64).
+            idx[a] = (p[a] as i64).clamp(0, self.dims[a] as i64 - 1);
             if dc[a] != 0.0 {
                 let inv = 1.0 / dc[a];
                 let up = dc[a] > 0.0;

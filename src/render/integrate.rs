@@ -41,7 +41,7 @@ use super::mesh::{self, TreeHit};
 use super::scene::Scene;
 use super::shading::{Radiance, shade, shade_ground, sun_radiance};
 use super::sunlight::{Caster, MAX_OWN, OwnTree, Strata, roulette, sun_light};
-use super::walk::{Active, March, Walk, segment_end};
+use super::walk::{Active, March, Walk, floor, segment_end};
 use crate::geom::{Ray, TriangleHit};
 use crate::rng::{self, purpose};
 
@@ -125,7 +125,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
                 .iter()
                 .map(|a| a.step)
                 .fold(f32::INFINITY, f32::min);
-            let empty = ((next - t) / (length * march.step)).floor();
+            let empty = floor((next - t) / (length * march.step));
             if empty >= 1.0 {
                 t += empty * length * march.step;
                 segment += empty as u64;

@@ -8,7 +8,7 @@ use super::lod::Draw;
 use super::mesh;
 use super::scene::Scene;
 use super::shading::sun_radiance;
-use super::walk::{Active, March, SIGMA_MAX, ShadowRays, level_for};
+use super::walk::{Active, March, SIGMA_MAX, ShadowRays, floor, level_for};
 use crate::geom::Ray;
 use crate::rng::{self, purpose};
 
@@ -126,7 +126,7 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                     // Whole segments that lie in empty bricks are jumped over, with their draws:
                     // the segments and samples left are exactly those of a march that skips
                     // nothing, so the estimate is unchanged, only cheaper.
-                    let empty = ((until - t) / length).floor();
+                    let empty = floor((until - t) / length);
                     if !occupied && empty >= 1.0 {
                         t += empty * length;
                         segment += empty as u64;
