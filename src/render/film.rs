@@ -30,14 +30,14 @@ pub struct Exr {
     pub clamped: usize,
 }
 
-/// Most bytes a render holds per pixel: the film's layers, the pixels the tiles hand back, and
-/// the EXR being encoded (checked with [`crate::limits::check_memory`] before a render starts;
-/// a test in `render` sums them from the types).
-pub const BYTES_PER_PIXEL: u64 = 336;
+/// Most bytes a render holds per pixel: the film's layers and the EXR being encoded (checked
+/// with [`crate::limits::check_memory`] before a render starts; a test in `render` sums them
+/// from the types).
+pub const BYTES_PER_PIXEL: u64 = 212;
 
-/// What Cryptomatte adds to [`BYTES_PER_PIXEL`]: the film's ranks, the tiles' (boxed), and
-/// the EXR's 32 float channels twice, as samples and encoded.
-pub const CRYPTOMATTE_BYTES_PER_PIXEL: u64 = 560;
+/// What Cryptomatte adds to [`BYTES_PER_PIXEL`]: the film's ranks, and the EXR's 32 float
+/// channels twice, as samples and encoded.
+pub const CRYPTOMATTE_BYTES_PER_PIXEL: u64 = 384;
 
 /// Largest finite half float.
 const HALF_MAX: f32 = 65504.0;

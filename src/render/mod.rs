@@ -129,45 +129,52 @@ pub fn render(
     if settings.method == Method::Hybrid {
         scene.choose(&lod::Draw::hybrid(settings.lod, spread, lod_key(settings)).simplified(scene));
     }
-    // Each tile's pixels in the tile's row order: the pixel's place is implicit, and a pixel
-    // holds only what the film keeps (at 1920 x 1080 the tiles' pixels are the run's largest
-    // allocation: 257 MB when each carried its place and its first sample's whole radiance).
+    // Each tile's pixels go into the film as soon as the tile is done, under a lock held for
+    // the copy alone: the film is the run's one image-sized allocation (pixels gathered
+    // frame-wide before the copy were another as large, 160 MB at 1920 x 1080, and the copy
+    // was serial). Each pixel is written once, so the order tiles finish in changes nothing.
     let rows = |ty: u32| ty..(ty + TILE).min(y1);
     let columns = |tx: u32| tx..(tx + TILE).min(x1);
-    let done: Vec<Vec<Pixel>> = tiles
-        .par_iter()
-        .map(|&(tx, ty)| {
-            let mut out = Vec::with_capacity((TILE * TILE) as usize);
+    let shared = std::sync::Mutex::new(film);
+    tiles.par_iter().for_each_init(
+        || Vec::with_capacity((TILE * TILE) as usize),
+        |out, &(tx, ty)| {
+            out.clear();
             for y in rows(ty) {
                 for x in columns(tx) {
                     out.push(pixel(scene, camera, settings, x, y, &strata, spread));
                 }
             }
             progress(out.len() as u64);
-            out
-        })
-        .collect();
-    for (&(tx, ty), pixels) in tiles.iter().zip(done) {
-        debug_assert_eq!(pixels.len(), rows(ty).len() * columns(tx).len());
-        let places = rows(ty).flat_map(|y| columns(tx).map(move |x| (x, y)));
-        for ((x, y), p) in places.zip(pixels) {
-            let i = ((x - x0) + film.width * (y - y0)) as usize;
-            film.rgba[i] = p.rgba;
-            film.z[i] = p.z;
-            film.normal[i] = p.normal;
-            film.albedo[i] = p.albedo;
-            film.canopy[i] = p.canopy;
-            film.mesh_canopy[i] = p.mesh_canopy;
-            film.band_canopy[i] = p.band_canopy;
-            film.species[i] = p.species;
-            film.samples[i] = p.samples;
-            film.shadow_rays[i] = p.shadow_rays;
-            if let Some(m) = p.mattes {
-                film.mattes[i] = *m;
+            let places = rows(ty).flat_map(|y| columns(tx).map(move |x| (x, y)));
+            // A panic elsewhere poisons the lock; the run is failing anyway.
+            let mut film = shared.lock().unwrap_or_else(|e| e.into_inner());
+            let width = film.width;
+            for ((x, y), p) in places.zip(out.drain(..)) {
+                film.put((x - x0 + width * (y - y0)) as usize, p);
             }
+        },
+    );
+    shared.into_inner().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Film {
+    /// Keeps pixel `p` as film pixel `i`.
+    fn put(&mut self, i: usize, p: Pixel) {
+        self.rgba[i] = p.rgba;
+        self.z[i] = p.z;
+        self.normal[i] = p.normal;
+        self.albedo[i] = p.albedo;
+        self.canopy[i] = p.canopy;
+        self.mesh_canopy[i] = p.mesh_canopy;
+        self.band_canopy[i] = p.band_canopy;
+        self.species[i] = p.species;
+        self.samples[i] = p.samples;
+        self.shadow_rays[i] = p.shadow_rays;
+        if let Some(m) = p.mattes {
+            self.mattes[i] = *m;
         }
     }
-    film
 }
 
 /// What the film keeps of a pixel.
@@ -339,24 +346,22 @@ fn species_of(scene: &Scene, o: u32) -> u32 {
 }
 
 /// The memory a render is checked for before it starts covers what it holds per pixel: the
-/// film's layers, the tiles' pixels, and the EXR's channels (every AOV, as floats) twice, as
-/// samples and as the encoded file.
+/// film's layers and the EXR's channels (every AOV, as floats) twice, as samples and as the
+/// encoded file. (The tiles' pixels are a tile's per thread, not the frame's.)
 #[test]
 fn the_memory_bound_per_pixel_covers_what_a_render_holds() {
     use std::mem::size_of;
-    let film = size_of::<[f32; 4]>() + 2 * size_of::<glam::Vec3>() + 6 * size_of::<f32>();
-    let tiles = size_of::<(u32, u32, Pixel)>();
+    let film = size_of::<[f32; 4]>() + 2 * size_of::<glam::Vec3>() + 7 * size_of::<f32>();
     // R G B A Z, normal, albedo, canopy, lod, species, samples.
-    let channels = 5 + 3 + 3 + 1 + 2 + 1 + 2;
+    let channels = 5 + 3 + 3 + 1 + 3 + 1 + 2;
     let exr = 2 * channels * size_of::<f32>();
-    let held = (film + tiles + exr) as u64;
-    println!("{film} + {tiles} + {exr} = {held} bytes a pixel");
+    let held = (film + exr) as u64;
+    println!("{film} + {exr} = {held} bytes a pixel");
     assert!(film::BYTES_PER_PIXEL >= held, "{held}");
-    // Cryptomatte: ranks in the film and in each tile's pixel (a box, with the allocator's
-    // header), 32 float channels in the EXR.
+    // Cryptomatte: ranks in the film, 32 float channels in the EXR.
     let ranks = size_of::<Mattes>();
-    let crypto = ranks + ranks + 16 + 2 * 32 * size_of::<f32>();
-    println!("cryptomatte: {ranks} + {ranks} + 16 + 256 = {crypto} bytes a pixel");
+    let crypto = ranks + 2 * 32 * size_of::<f32>();
+    println!("cryptomatte: {ranks} + 256 = {crypto} bytes a pixel");
     assert!(
         film::CRYPTOMATTE_BYTES_PER_PIXEL >= crypto as u64,
         "{crypto}"
