@@ -361,6 +361,19 @@ fn warn_underground(scene: &LoadedScene, camera: &Camera) {
     }
 }
 
+/// The layers `--aov` asks for.
+fn aovs(args: &RenderArgs) -> Aovs {
+    Aovs {
+        normal: args.aov.contains(&AovArg::Normal),
+        albedo: args.aov.contains(&AovArg::Albedo),
+        canopy: args.aov.contains(&AovArg::Canopy),
+        species: args.aov.contains(&AovArg::Species),
+        lod: args.aov.contains(&AovArg::Lod),
+        samples: args.aov.contains(&AovArg::Samples),
+        cryptomatte: args.aov.contains(&AovArg::Cryptomatte),
+    }
+}
+
 fn settings(args: &RenderArgs, method: MethodArg) -> RenderSettings {
     RenderSettings {
         method: match method {
@@ -390,6 +403,7 @@ fn settings(args: &RenderArgs, method: MethodArg) -> RenderSettings {
         seed: args.seed,
         lod_seed: args.seed,
         mattes: args.aov.contains(&AovArg::Cryptomatte),
+        layers: aovs(args),
     }
 }
 
@@ -416,19 +430,10 @@ fn write(
     let mut outputs = Outputs::new(&inputs(args));
     outputs.add_inputs(dependencies)?;
     let exr_id = outputs.add("-o", &shot.exr)?;
-    let aovs = Aovs {
-        normal: args.aov.contains(&AovArg::Normal),
-        albedo: args.aov.contains(&AovArg::Albedo),
-        canopy: args.aov.contains(&AovArg::Canopy),
-        species: args.aov.contains(&AovArg::Species),
-        lod: args.aov.contains(&AovArg::Lod),
-        samples: args.aov.contains(&AovArg::Samples),
-        cryptomatte: args.aov.contains(&AovArg::Cryptomatte),
-    };
     let exr = film
         .exr_bytes(
             args.half,
-            aovs,
+            aovs(args),
             camera.world_to_camera(),
             camera.world_to_ndc(),
             names,

@@ -86,6 +86,9 @@ pub struct RenderSettings {
     pub lod_seed: u64,
     /// Record each pixel's coverage by tree, species, terrain and sky (`matte`).
     pub mattes: bool,
+    /// The layers the film keeps besides RGBA and Z: those its file will carry (default
+    /// all).
+    pub layers: Aovs,
 }
 
 impl Default for RenderSettings {
@@ -100,6 +103,7 @@ impl Default for RenderSettings {
             seed: 0,
             lod_seed: 0,
             mattes: false,
+            layers: Aovs::ALL,
         }
     }
 }
@@ -112,7 +116,14 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Film {
     let [x0, y0, x1, y1] = settings.crop.unwrap_or([0, 0, camera.width, camera.height]);
-    let mut film = Film::new(x0, y0, x1 - x0, y1 - y0, (camera.width, camera.height));
+    let mut film = Film::keeping(
+        x0,
+        y0,
+        x1 - x0,
+        y1 - y0,
+        (camera.width, camera.height),
+        settings.layers,
+    );
     if settings.mattes {
         film.mattes = vec![Mattes::EMPTY; film.rgba.len()];
     }
@@ -159,18 +170,24 @@ pub fn render(
 }
 
 impl Film {
-    /// Keeps pixel `p` as film pixel `i`.
+    /// Keeps pixel `p` as film pixel `i`, in the layers the film keeps.
     fn put(&mut self, i: usize, p: Pixel) {
+        fn keep<T>(layer: &mut [T], i: usize, value: T) {
+            if let Some(v) = layer.get_mut(i) {
+                *v = value;
+            }
+        }
         self.rgba[i] = p.rgba;
         self.z[i] = p.z;
-        self.normal[i] = p.normal;
-        self.albedo[i] = p.albedo;
-        self.canopy[i] = p.canopy;
-        self.mesh_canopy[i] = p.mesh_canopy;
-        self.band_canopy[i] = p.band_canopy;
-        self.species[i] = p.species;
-        self.samples[i] = p.samples;
-        self.shadow_rays[i] = p.shadow_rays;
+        keep(&mut self.normal, i, p.normal);
+        keep(&mut self.albedo, i, p.albedo);
+        keep(&mut self.canopy, i, p.canopy);
+        keep(&mut self.mesh_canopy, i, p.mesh_canopy);
+        keep(&mut self.band_canopy, i, p.band_canopy);
+        keep(&mut self.species, i, p.species);
+        keep(&mut self.samples, i, p.samples);
+        keep(&mut self.shadow_rays, i, p.shadow_rays);
+        self.add_work(p.samples, p.shadow_rays);
         if let Some(m) = p.mattes {
             self.mattes[i] = *m;
         }

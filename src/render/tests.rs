@@ -1407,3 +1407,58 @@ fn an_opaque_slab_lit_from_any_angle_gives_the_lambert_radiance_on_average() {
         );
     }
 }
+
+/// A film keeps only the layers it is asked to (the rest would be memory no file carries), and
+/// the file it encodes with them is the same bytes as a film that kept every layer writes; the
+/// work it reports is the same; a layer it did not keep is refused by name, not read as zeros.
+#[test]
+fn a_film_keeps_only_the_layers_its_file_carries() {
+    use super::Aovs;
+    let (scene, camera) = fog_ball();
+    let film = |layers| {
+        render(
+            &scene,
+            &camera,
+            &RenderSettings {
+                spp: 4,
+                layers,
+                ..RenderSettings::default()
+            },
+            &|_| {},
+        )
+    };
+    let all = film(Aovs::ALL);
+    let matrices = (camera.world_to_camera(), camera.world_to_ndc());
+    let exr = |f: &super::Film, aovs| f.exr_bytes(false, aovs, matrices.0, matrices.1, None);
+    for aovs in [
+        Aovs::default(),
+        Aovs {
+            canopy: true,
+            ..Aovs::default()
+        },
+        Aovs {
+            lod: true,
+            samples: true,
+            ..Aovs::default()
+        },
+        Aovs::ALL,
+    ] {
+        let kept = film(aovs);
+        assert_eq!(kept.work(), all.work());
+        assert_eq!(
+            exr(&kept, aovs).unwrap().bytes,
+            exr(&all, aovs).unwrap().bytes,
+            "{aovs:?}"
+        );
+    }
+    let bare = film(Aovs::default());
+    assert!(bare.normal.is_empty() && bare.samples.is_empty() && bare.canopy.is_empty());
+    let asked = Aovs {
+        normal: true,
+        ..Aovs::default()
+    };
+    let refused = exr(&bare, asked)
+        .err()
+        .expect("a layer the film did not keep");
+    assert!(refused.contains("normal"), "{refused}");
+}
