@@ -53,6 +53,55 @@ pub const BYTES_PER_PIXEL: u64 = 212;
 /// channels twice, as samples and encoded.
 pub const CRYPTOMATTE_BYTES_PER_PIXEL: u64 = 384;
 
+/// Puts the attributes of a single-part OpenEXR file's header in the order of their names.
+/// The `exr` crate writes attributes it does not know (Cryptomatte's) in the order of a
+/// `std::collections::HashMap`, which each process seeds at random: the same render would
+/// differ from run to run in the order of its header's attributes. The format leaves their
+/// order free, and sorting them changes no length, so the offset table after the header still
+/// points where it did.
+fn sort_attributes(bytes: &mut [u8]) -> std::result::Result<(), String> {
+    let bad = |what: &str| format!("the encoded header is not as expected: {what}");
+    // Magic number, then the version field, whose bit 12 marks a multi-part file.
+    let version = bytes.get(4..8).ok_or_else(|| bad("too short"))?;
+    if u32::from_le_bytes([version[0], version[1], version[2], version[3]]) & 0x1000 != 0 {
+        return Err(bad("several parts"));
+    }
+    let start = 8;
+    // Each attribute: its name and its type (both ending in a zero byte), its size (4 bytes,
+    // little-endian) and its value; a zero byte where a name would begin ends the header.
+    let mut attributes = Vec::new();
+    let mut at = start;
+    loop {
+        let zero = |from: usize| {
+            bytes
+                .get(from..)
+                .and_then(|b| b.iter().position(|&c| c == 0))
+                .map(|k| from + k)
+                .ok_or_else(|| bad("a name without its end"))
+        };
+        let name_end = zero(at)?;
+        if name_end == at {
+            break;
+        }
+        let type_end = zero(name_end + 1)?;
+        let size = bytes
+            .get(type_end + 1..type_end + 5)
+            .ok_or_else(|| bad("an attribute without its size"))?;
+        let size = u32::from_le_bytes([size[0], size[1], size[2], size[3]]) as usize;
+        let end = type_end + 5 + size;
+        if end > bytes.len() {
+            return Err(bad("an attribute past the end"));
+        }
+        attributes.push((at, name_end, end));
+        at = end;
+    }
+    let mut sorted: Vec<&[u8]> = attributes.iter().map(|&(a, _, e)| &bytes[a..e]).collect();
+    sorted.sort_by_key(|a| &a[..a.iter().position(|&c| c == 0).unwrap_or(a.len())]);
+    let sorted: Vec<u8> = sorted.concat();
+    bytes[start..at].copy_from_slice(&sorted);
+    Ok(())
+}
+
 /// Largest finite half float.
 const HALF_MAX: f32 = 65504.0;
 
@@ -192,6 +241,7 @@ impl Film {
             .write()
             .to_buffered(std::io::Cursor::new(&mut bytes))
             .map_err(|e| e.to_string())?;
+        sort_attributes(&mut bytes)?;
         Ok(Exr { bytes, clamped })
     }
 
