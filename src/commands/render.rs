@@ -14,7 +14,7 @@ use texel_forest::render::camera_path::CameraPath;
 use texel_forest::render::load::{self, LoadedScene, Meshes, SceneRequest};
 use texel_forest::render::{
     self, Aovs, Camera, Film, Lighting, Lod, March, MatteNames, Method, RenderSettings, Shading,
-    ShadowRays, film,
+    ShadowRays,
     view::{self, CameraChoice},
 };
 use texel_forest::rng;
@@ -288,12 +288,7 @@ fn numbered(flag: &str, path: &Path, frame: u32, count: usize) -> anyhow::Result
 fn plan(args: &RenderArgs, limits: &Limits, shots: &[Shot]) -> anyhow::Result<Outputs> {
     let pixels = u64::from(args.width) * u64::from(args.height);
     limits.check_pixels(pixels, "--width x --height")?;
-    let per_pixel = film::BYTES_PER_PIXEL
-        + if args.aov.contains(&AovArg::Cryptomatte) {
-            film::CRYPTOMATTE_BYTES_PER_PIXEL
-        } else {
-            0
-        };
+    let per_pixel = aovs(args).bytes_per_pixel();
     check_memory(
         pixels.saturating_mul(per_pixel),
         &format!("a {}x{} frame", args.width, args.height),

@@ -36,6 +36,30 @@ impl Aovs {
         samples: true,
         cryptomatte: false,
     };
+
+    /// The most bytes a render writing these layers holds per pixel: the layers the film
+    /// keeps, and the EXR's channels twice, as samples and encoded (Cryptomatte: the film's
+    /// ranks and 32 float channels). A render is checked for it before it starts
+    /// ([`crate::limits::check_memory`]); a test in `render` sums it from the types.
+    pub fn bytes_per_pixel(&self) -> u64 {
+        // RGBA and Z: 20 bytes in the film, five channels.
+        let (mut film, mut channels) = (20u64, 5u64);
+        let mut add = |kept: bool, bytes: u64, count: u64| {
+            if kept {
+                film += bytes;
+                channels += count;
+            }
+        };
+        add(self.normal, 12, 3);
+        add(self.albedo, 12, 3);
+        add(self.canopy || self.lod, 4, 0);
+        add(self.canopy, 0, 1);
+        add(self.lod, 8, 3);
+        add(self.species, 4, 1);
+        add(self.samples, 8, 2);
+        add(self.cryptomatte, 128, 32);
+        film + 2 * 4 * channels
+    }
 }
 
 /// An encoded OpenEXR file, and how many values were clamped to fit half floats.
@@ -43,15 +67,6 @@ pub struct Exr {
     pub bytes: Vec<u8>,
     pub clamped: usize,
 }
-
-/// Most bytes a render holds per pixel: the film's layers and the EXR being encoded (checked
-/// with [`crate::limits::check_memory`] before a render starts; a test in `render` sums them
-/// from the types).
-pub const BYTES_PER_PIXEL: u64 = 212;
-
-/// What Cryptomatte adds to [`BYTES_PER_PIXEL`]: the film's ranks, and the EXR's 32 float
-/// channels twice, as samples and encoded.
-pub const CRYPTOMATTE_BYTES_PER_PIXEL: u64 = 384;
 
 /// Puts the attributes of a single-part OpenEXR file's header in the order of their names.
 /// The `exr` crate writes attributes it does not know (Cryptomatte's) in the order of a

@@ -363,24 +363,50 @@ fn species_of(scene: &Scene, o: u32) -> u32 {
 }
 
 /// The memory a render is checked for before it starts covers what it holds per pixel: the
-/// film's layers and the EXR's channels (every AOV, as floats) twice, as samples and as the
-/// encoded file. (The tiles' pixels are a tile's per thread, not the frame's.)
+/// layers its film keeps and the EXR's channels twice, as samples and as the encoded file,
+/// for every choice of layers. (The tiles' pixels are a tile's per thread, not the frame's.)
 #[test]
 fn the_memory_bound_per_pixel_covers_what_a_render_holds() {
     use std::mem::size_of;
-    let film = size_of::<[f32; 4]>() + 2 * size_of::<glam::Vec3>() + 7 * size_of::<f32>();
-    // R G B A Z, normal, albedo, canopy, lod, species, samples.
-    let channels = 5 + 3 + 3 + 1 + 3 + 1 + 2;
-    let exr = 2 * channels * size_of::<f32>();
-    let held = (film + exr) as u64;
-    println!("{film} + {exr} = {held} bytes a pixel");
-    assert!(film::BYTES_PER_PIXEL >= held, "{held}");
-    // Cryptomatte: ranks in the film, 32 float channels in the EXR.
-    let ranks = size_of::<Mattes>();
-    let crypto = ranks + 2 * 32 * size_of::<f32>();
-    println!("cryptomatte: {ranks} + 256 = {crypto} bytes a pixel");
-    assert!(
-        film::CRYPTOMATTE_BYTES_PER_PIXEL >= crypto as u64,
-        "{crypto}"
-    );
+    let f32s = size_of::<f32>();
+    for bits in 0..128u32 {
+        let bit = |k: u32| bits >> k & 1 == 1;
+        let aovs = Aovs {
+            normal: bit(0),
+            albedo: bit(1),
+            canopy: bit(2),
+            species: bit(3),
+            lod: bit(4),
+            samples: bit(5),
+            cryptomatte: bit(6),
+        };
+        let settings = RenderSettings {
+            layers: aovs,
+            mattes: aovs.cryptomatte,
+            ..RenderSettings::default()
+        };
+        let film = Film::keeping(0, 0, 1, 1, (1, 1), settings.layers);
+        let kept = |v: usize, size: usize| v * size;
+        let mut held = size_of::<[f32; 4]>()
+            + film.z.len() * f32s
+            + kept(film.normal.len(), size_of::<glam::Vec3>())
+            + kept(film.albedo.len(), size_of::<glam::Vec3>())
+            + (film.canopy.len() + film.mesh_canopy.len() + film.band_canopy.len()) * f32s
+            + (film.species.len() + film.samples.len() + film.shadow_rays.len()) * f32s;
+        if settings.mattes {
+            held += size_of::<Mattes>();
+        }
+        // R G B A Z, normal, albedo, canopy, lod, species, samples, Cryptomatte.
+        let channels = 5
+            + 3 * usize::from(aovs.normal)
+            + 3 * usize::from(aovs.albedo)
+            + usize::from(aovs.canopy)
+            + 3 * usize::from(aovs.lod)
+            + usize::from(aovs.species)
+            + 2 * usize::from(aovs.samples)
+            + 32 * usize::from(aovs.cryptomatte);
+        held += 2 * channels * f32s;
+        assert!(aovs.bytes_per_pixel() >= held as u64, "{aovs:?}: {held}");
+    }
+    assert_eq!(Aovs::default().bytes_per_pixel(), 60);
 }
