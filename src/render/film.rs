@@ -110,9 +110,12 @@ fn sort_attributes(bytes: &mut [u8]) -> std::result::Result<(), String> {
         attributes.push((at, name_end, end));
         at = end;
     }
-    let mut sorted: Vec<&[u8]> = attributes.iter().map(|&(a, _, e)| &bytes[a..e]).collect();
-    sorted.sort_by_key(|a| &a[..a.iter().position(|&c| c == 0).unwrap_or(a.len())]);
-    let sorted: Vec<u8> = sorted.concat();
+    attributes.sort_by_key(|&(a, name_end, _)| &bytes[a..name_end]);
+    let sorted: Vec<u8> = attributes
+        .iter()
+        .flat_map(|&(a, _, e)| &bytes[a..e])
+        .copied()
+        .collect();
     bytes[start..at].copy_from_slice(&sorted);
     Ok(())
 }

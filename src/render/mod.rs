@@ -380,20 +380,14 @@ fn the_memory_bound_per_pixel_covers_what_a_render_holds() {
             samples: bit(5),
             cryptomatte: bit(6),
         };
-        let settings = RenderSettings {
-            layers: aovs,
-            mattes: aovs.cryptomatte,
-            ..RenderSettings::default()
-        };
-        let film = Film::keeping(0, 0, 1, 1, (1, 1), settings.layers);
-        let kept = |v: usize, size: usize| v * size;
+        // What a one-pixel film keeps (a render adds the ranks where it records mattes).
+        let film = Film::keeping(0, 0, 1, 1, (1, 1), aovs);
         let mut held = size_of::<[f32; 4]>()
             + film.z.len() * f32s
-            + kept(film.normal.len(), size_of::<glam::Vec3>())
-            + kept(film.albedo.len(), size_of::<glam::Vec3>())
+            + (film.normal.len() + film.albedo.len()) * size_of::<glam::Vec3>()
             + (film.canopy.len() + film.mesh_canopy.len() + film.band_canopy.len()) * f32s
             + (film.species.len() + film.samples.len() + film.shadow_rays.len()) * f32s;
-        if settings.mattes {
+        if aovs.cryptomatte {
             held += size_of::<Mattes>();
         }
         // R G B A Z, normal, albedo, canopy, lod, species, samples, Cryptomatte.

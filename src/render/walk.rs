@@ -311,9 +311,6 @@ mod tests {
     use super::level_of;
     use crate::rng::Stream;
 
-    /// The level is the whole part of log2(cells) + bias, clamped to the levels there are, as
-    /// f64 works it out, for whole biases (read from the exponent) and others (a logarithm);
-    /// footprints below a cell, not a number or infinite read the finest and the coarsest.
     /// [`super::floor`] is `f32::floor` for every float around the cut at 2^23, the whole
     /// numbers, and a spread of others (negative, tiny, huge, not finite).
     #[test]
@@ -335,6 +332,9 @@ mod tests {
         }
     }
 
+    /// The level is the whole part of log2(cells) + bias, clamped to the levels there are, as
+    /// f64 works it out, for whole biases (read from the exponent) and others (a logarithm);
+    /// footprints below a cell, not a number or infinite read the finest and the coarsest.
     #[test]
     fn a_footprint_reads_the_level_whose_cells_match_it() {
         let mut s = Stream::new(3, 0);
