@@ -620,8 +620,8 @@ fn cryptomatte_layers_cover_each_pixel_by_species_and_tree() {
         let o = render(dir.path(), &["-o", out, "--half", "--aov", "cryptomatte"]);
         assert!(o.status.success(), "{}", stderr(&o));
     }
-    let bytes = |f: &str| std::fs::read(dir.path().join(f)).unwrap();
-    assert!(bytes("crypto.exr") == bytes("again.exr") && bytes("crypto.exr") == bytes("third.exr"));
+    assert_same_bytes(dir.path(), "crypto.exr", "again.exr");
+    assert_same_bytes(dir.path(), "crypto.exr", "third.exr");
     let image =
         exr::prelude::read_all_flat_layers_from_file(dir.path().join("crypto.exr")).unwrap();
     let layer = &image.layer_data[0];

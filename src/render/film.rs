@@ -277,10 +277,12 @@ impl Film {
             (aovs.canopy, self.canopy.len(), "canopy"),
             (
                 aovs.lod,
-                self.mesh_canopy.len().min(self.band_canopy.len()),
+                self.canopy
+                    .len()
+                    .min(self.mesh_canopy.len())
+                    .min(self.band_canopy.len()),
                 "lod",
             ),
-            (aovs.lod, self.canopy.len(), "lod"),
             (aovs.species, self.species.len(), "species"),
             (
                 aovs.samples,

@@ -381,6 +381,23 @@ fn fog_ball() -> (Scene, Camera) {
     (scene, camera)
 }
 
+/// The root of the mean over pixels of the squared differences of two films' RGBA
+/// `channels`, summed over the channels.
+fn rms_difference(a: &super::Film, b: &super::Film, channels: &[usize]) -> f64 {
+    let e: f64 = a
+        .rgba
+        .iter()
+        .zip(&b.rgba)
+        .map(|(p, q)| {
+            channels
+                .iter()
+                .map(|&c| f64::from(p[c] - q[c]).powi(2))
+                .sum::<f64>()
+        })
+        .sum();
+    (e / a.rgba.len() as f64).sqrt()
+}
+
 #[test]
 fn the_stratified_estimator_converges_as_samples_grow() {
     let (scene, camera) = fog_ball();
@@ -396,16 +413,7 @@ fn the_stratified_estimator_converges_as_samples_grow() {
         )
     };
     let reference = image(256);
-    let error = |spp: u32| {
-        let f = image(spp);
-        let e: f64 = f
-            .rgba
-            .iter()
-            .zip(&reference.rgba)
-            .map(|(a, b)| ((a[0] - b[0]) as f64).powi(2) + ((a[3] - b[3]) as f64).powi(2))
-            .sum();
-        (e / f.rgba.len() as f64).sqrt()
-    };
+    let error = |spp: u32| rms_difference(&image(spp), &reference, &[0, 3]);
     let errors: Vec<f64> = [1, 4, 16].iter().map(|&s| error(s)).collect();
     println!("rms error at 1, 4, 16 spp: {errors:?}");
     assert!(errors[0] > errors[1] && errors[1] > errors[2], "{errors:?}");
@@ -474,15 +482,7 @@ fn centred_samples_are_nearer_the_reference_than_jittered_ones_on_a_smooth_volum
         )
     };
     let reference = image(256, true, 99);
-    let error = |f: &super::Film| {
-        let e: f64 = f
-            .rgba
-            .iter()
-            .zip(&reference.rgba)
-            .map(|(a, b)| (0..4).map(|c| ((a[c] - b[c]) as f64).powi(2)).sum::<f64>())
-            .sum();
-        (e / f.rgba.len() as f64).sqrt()
-    };
+    let error = |f: &super::Film| rms_difference(f, &reference, &[0, 1, 2, 3]);
     for spp in [1, 4] {
         let centred = error(&image(spp, false, 0));
         let jittered: Vec<f64> = (1..=4).map(|seed| error(&image(spp, true, seed))).collect();
