@@ -505,6 +505,16 @@ pub struct RenderArgs {
     /// a grid of equal cells over the pixel.
     #[arg(long)]
     pub jitter: bool,
+    /// Samples per pixel for a pixel at an edge: after a first pass at --spp, each pixel that
+    /// differs from a neighbour by more than --edge-contrast is rendered again at this count
+    /// (silhouettes against the sky and the terrain, where one ray sees all or none of what
+    /// covers part of the pixel). 0: every pixel at --spp.
+    #[arg(long, default_value_t = 0, value_name = "SPP", value_parser = clap::value_parser!(u32).range(0..=65536))]
+    pub edge_spp: u32,
+    /// The least difference to a neighbour that makes a pixel an edge (--edge-spp): in alpha,
+    /// or in a colour channel compared as c / (1 + c).
+    #[arg(long, default_value_t = 0.05, value_name = "C", value_parser = non_negative)]
+    pub edge_contrast: f64,
     /// What draws the trees: their 3D textures, the glTF models the textures were baked
     /// from (the conventional method; the ground truth at many samples per pixel), or each
     /// tree whichever of the two its footprint needs. Default: hybrid, or texel (with a

@@ -712,3 +712,65 @@ fn cryptomatte_layers_cover_each_pixel_by_species_and_tree() {
         }
     }
 }
+
+/// `--edge-spp` renders again the pixels at edges (here the crowns and the mountain's ridge
+/// against the sky): against a 64-spp mesh render, alpha's error falls by a quarter or more,
+/// colour's does not rise, and the run says how many pixels it rendered again (measured:
+/// texel RGB 0.0078 -> 0.0056, alpha 0.034 -> 0.023; hybrid 0.0097 -> 0.0054, 0.038 ->
+/// 0.020). An edge count no larger than --spp is refused.
+#[test]
+fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
+    let dir = small_forest();
+    let d = dir.path();
+    let view = [
+        "--eye=-150,330,260",
+        "--target",
+        "0,340,0",
+        "--fov",
+        "40",
+        "--width",
+        "128",
+        "--height",
+        "72",
+        "--method",
+    ];
+    let render = |out: &str, extra: &[&str]| {
+        let mut a = vec!["render", "forest.instances", "-o", out];
+        a.extend_from_slice(&view);
+        a.extend_from_slice(extra);
+        run(&a, d)
+    };
+    let o = render("reference.exr", &["mesh", "--spp", "64", "--jitter"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let error = |image: &str| {
+        let o = run(&["compare", image, "reference.exr", "--json"], d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let all = &json["all"];
+        [
+            all["rgb"]["rmse"].as_f64().unwrap(),
+            all["alpha"]["rmse"].as_f64().unwrap(),
+        ]
+    };
+    for method in ["texel", "hybrid"] {
+        let o = render("once.exr", &[method]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let o = render("edges.exr", &[method, "--edge-spp", "4"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains("pixels at edges rendered again at 4 spp"),
+            "{}",
+            stderr(&o)
+        );
+        let ([rgb, alpha], [rgb_edges, alpha_edges]) = (error("once.exr"), error("edges.exr"));
+        assert!(
+            alpha_edges < 0.75 * alpha,
+            "{method}: alpha {alpha} -> {alpha_edges}"
+        );
+        assert!(rgb_edges <= rgb, "{method}: rgb {rgb} -> {rgb_edges}");
+    }
+    let o = render("refused.exr", &["texel", "--spp", "4", "--edge-spp", "4"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--edge-spp 4"), "{}", stderr(&o));
+    assert!(!d.join("refused.exr").exists());
+}

@@ -45,6 +45,14 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
             args.instances.display()
         );
     }
+    if args.edge_spp > 0 && args.edge_spp <= args.spp {
+        anyhow::bail!(
+            "--edge-spp {} would render edges again with no more samples than --spp {} gave them; \
+             give more, or 0 for none",
+            args.edge_spp,
+            args.spp
+        );
+    }
     let path = args
         .camera_path
         .as_ref()
@@ -288,7 +296,8 @@ fn numbered(flag: &str, path: &Path, frame: u32, count: usize) -> anyhow::Result
 fn plan(args: &RenderArgs, limits: &Limits, shots: &[Shot]) -> anyhow::Result<Outputs> {
     let pixels = u64::from(args.width) * u64::from(args.height);
     limits.check_pixels(pixels, "--width x --height")?;
-    let per_pixel = aovs(args).bytes_per_pixel();
+    // Edges sampled again: a mark per pixel, and the index of each one marked.
+    let per_pixel = aovs(args).bytes_per_pixel() + if args.edge_spp > 0 { 5 } else { 0 };
     check_memory(
         pixels.saturating_mul(per_pixel),
         &format!("a {}x{} frame", args.width, args.height),
@@ -397,6 +406,10 @@ fn settings(args: &RenderArgs, method: MethodArg) -> RenderSettings {
         crop: args.crop,
         seed: args.seed,
         lod_seed: args.seed,
+        edges: (args.edge_spp > 0).then_some(render::Edges {
+            spp: args.edge_spp,
+            contrast: args.edge_contrast as f32,
+        }),
         mattes: args.aov.contains(&AovArg::Cryptomatte),
         layers: aovs(args),
     }
@@ -484,6 +497,14 @@ fn summary(
         format!(
             "{work}, {grids} sun-depth grids ({:.1} MiB)",
             bytes as f64 / f64::from(1 << 20)
+        )
+    } else {
+        work
+    };
+    let work = if args.edge_spp > 0 {
+        format!(
+            "{work}, {} pixels at edges rendered again at {} spp",
+            film.sampled_again, args.edge_spp
         )
     } else {
         work

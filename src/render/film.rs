@@ -153,6 +153,8 @@ pub struct Film {
     pub mattes: Vec<Mattes>,
     /// The volume samples and shadow rays of every pixel put in, summed ([`Film::work`]).
     work: [f64; 2],
+    /// Pixels rendered again with more samples, at edges (`RenderSettings::edges`).
+    pub sampled_again: u64,
 }
 
 impl Film {
@@ -194,6 +196,7 @@ impl Film {
             shadow_rays: layer(layers.samples, 0.0, n),
             mattes: Vec::new(),
             work: [0.0; 2],
+            sampled_again: 0,
         }
     }
 

@@ -8,6 +8,7 @@
 
 pub mod camera;
 pub mod camera_path;
+pub mod edges;
 pub mod film;
 pub mod instances;
 pub mod integrate;
@@ -26,6 +27,7 @@ pub mod walk;
 use rayon::prelude::*;
 
 pub use camera::Camera;
+pub use edges::Edges;
 pub use film::{Aovs, Film};
 pub use lod::Lod;
 pub use matte::MatteNames;
@@ -84,6 +86,9 @@ pub struct RenderSettings {
     /// changes representation once as the camera comes nearer rather than from frame to
     /// frame. Over seeds, a tree is a texture with the band's probability.
     pub lod_seed: u64,
+    /// Pixels at edges sampled again with more samples (`edges`); `None` samples every pixel
+    /// alike.
+    pub edges: Option<Edges>,
     /// Record each pixel's coverage by tree, species, terrain and sky (`matte`).
     pub mattes: bool,
     /// The layers the film keeps besides RGBA and Z: those its file will carry (default
@@ -102,6 +107,7 @@ impl Default for RenderSettings {
             crop: None,
             seed: 0,
             lod_seed: 0,
+            edges: None,
             mattes: false,
             layers: Aovs::ALL,
         }
@@ -131,14 +137,11 @@ pub fn render(
         .step_by(TILE as usize)
         .flat_map(|ty| (x0..x1).step_by(TILE as usize).map(move |tx| (tx, ty)))
         .collect();
-    let strata = Strata::new(settings.spp);
-    // Each sample stands for its stratum of the pixel, not the whole pixel: its footprint,
-    // which picks the mip level, is the stratum's (the side of a square of its area). More
-    // samples then read finer levels, and the image converges to the finest level's, not to
-    // the pixel-sized level's bias.
-    let spread = camera.pixel_angle() as f32 / (settings.spp as f32).sqrt();
+    let base = Sampling::new(camera, settings.spp);
     if settings.method == Method::Hybrid {
-        scene.choose(&lod::Draw::hybrid(settings.lod, spread, lod_key(settings)).simplified(scene));
+        scene.choose(
+            &lod::Draw::hybrid(settings.lod, base.spread, lod_key(settings)).simplified(scene),
+        );
     }
     // Each tile's pixels go into the film as soon as the tile is done, under a lock held for
     // the copy alone: the film is the run's one image-sized allocation (pixels gathered
@@ -153,7 +156,7 @@ pub fn render(
             out.clear();
             for y in rows(ty) {
                 for x in columns(tx) {
-                    out.push(pixel(scene, camera, settings, x, y, &strata, spread));
+                    out.push(pixel(scene, camera, settings, x, y, &base));
                 }
             }
             progress(out.len() as u64);
@@ -166,7 +169,83 @@ pub fn render(
             }
         },
     );
-    shared.into_inner().unwrap_or_else(|e| e.into_inner())
+    let mut film = shared.into_inner().unwrap_or_else(|e| e.into_inner());
+    if let Some(edges) = settings.edges {
+        sample_edges(scene, camera, settings, &edges, &base, &mut film);
+    }
+    film
+}
+
+/// How the samples of a pixel are laid: their count, their strata, and each one's footprint
+/// per metre of distance.
+struct Sampling {
+    spp: u32,
+    strata: Strata,
+    spread: f32,
+}
+
+impl Sampling {
+    fn new(camera: &Camera, spp: u32) -> Sampling {
+        Sampling {
+            spp,
+            strata: Strata::new(spp),
+            // Each sample stands for its stratum of the pixel, not the whole pixel: its
+            // footprint, which picks the mip level, is the stratum's (the side of a square of
+            // its area). More samples then read finer levels, and the image converges to the
+            // finest level's, not to the pixel-sized level's bias.
+            spread: camera.pixel_angle() as f32 / (spp as f32).sqrt(),
+        }
+    }
+}
+
+/// Renders again, at `edges.spp`, the pixels of `film` (the first pass, at `base`) that
+/// differ from a neighbour ([`Edges::find`]). A crop's pixels at its border are compared with
+/// the first pass of the pixels just outside it, rendered here.
+fn sample_edges(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    edges: &Edges,
+    base: &Sampling,
+    film: &mut Film,
+) {
+    let region = [
+        film.x0,
+        film.y0,
+        film.x0 + film.width,
+        film.y0 + film.height,
+    ];
+    let frame = (camera.width, camera.height);
+    let ring: std::collections::HashMap<(u32, u32), [f32; 4]> = edges::ring(region, frame)
+        .into_par_iter()
+        .map(|(x, y)| ((x, y), pixel(scene, camera, settings, x, y, base).rgba))
+        .collect();
+    let at_edges = edges.find(region, frame, |x, y| {
+        if (region[0]..region[2]).contains(&x) && (region[1]..region[3]).contains(&y) {
+            film.rgba[(x - region[0] + film.width * (y - region[1])) as usize]
+        } else {
+            ring.get(&(x, y)).copied().unwrap_or([0.0; 4])
+        }
+    });
+    let places: Vec<u32> = (0..at_edges.len() as u32)
+        .filter(|&i| at_edges[i as usize])
+        .collect();
+    let more = Sampling::new(camera, edges.spp);
+    let shared = std::sync::Mutex::new(film);
+    places.par_chunks(64).for_each(|chunk| {
+        let width = region[2] - region[0];
+        let pixels: Vec<(usize, Pixel)> = chunk
+            .iter()
+            .map(|&i| {
+                let (x, y) = (region[0] + i % width, region[1] + i / width);
+                (i as usize, pixel(scene, camera, settings, x, y, &more))
+            })
+            .collect();
+        let mut film = shared.lock().unwrap_or_else(|e| e.into_inner());
+        for (i, p) in pixels {
+            film.put_again(i, p);
+        }
+    });
 }
 
 impl Film {
@@ -191,6 +270,21 @@ impl Film {
         if let Some(m) = p.mattes {
             self.mattes[i] = *m;
         }
+    }
+
+    /// Replaces pixel `i` with `p`, rendered again with more samples: the first pass's work
+    /// still counts, in the pixel's and in the frame's.
+    fn put_again(&mut self, i: usize, p: Pixel) {
+        let samples = self.samples.get(i).copied();
+        let shadow_rays = self.shadow_rays.get(i).copied();
+        self.put(i, p);
+        if let (Some(s), Some(before)) = (self.samples.get_mut(i), samples) {
+            *s += before;
+        }
+        if let (Some(s), Some(before)) = (self.shadow_rays.get_mut(i), shadow_rays) {
+            *s += before;
+        }
+        self.sampled_again += 1;
     }
 }
 
@@ -257,16 +351,20 @@ impl Strata {
     }
 }
 
-/// The mean of `spp` samples, one in each of the pixel's `strata`.
+/// The mean of a pixel's samples, one in each of its strata.
 fn pixel(
     scene: &Scene,
     camera: &Camera,
     settings: &RenderSettings,
     x: u32,
     y: u32,
-    strata: &Strata,
-    spread: f32,
+    sampling: &Sampling,
 ) -> Pixel {
+    let Sampling {
+        spp,
+        ref strata,
+        spread,
+    } = *sampling;
     let pixel_key = rng::hash3(
         settings.seed,
         ((y as u64) << 32) | x as u64,
@@ -276,7 +374,7 @@ fn pixel(
     let (mut samples, mut shadow_rays) = (0u64, 0u64);
     let (mut canopy, mut mesh_canopy, mut band_canopy) = (0.0f32, 0.0f32, 0.0f32);
     let mut coverage = matte::Coverage::default();
-    for s in 0..settings.spp {
+    for s in 0..spp {
         matte::begin(settings.mattes);
         let key = rng::hash3(pixel_key, s as u64, 0);
         let (u, v) = strata.place(s, settings.jitter.then_some(key));
@@ -313,11 +411,11 @@ fn pixel(
     }
     let mattes = settings.mattes.then(|| {
         Box::new(Mattes {
-            trees: coverage.ranks(settings.spp, |o| o),
-            species: coverage.ranks(settings.spp, |o| species_of(scene, o)),
+            trees: coverage.ranks(spp, |o| o),
+            species: coverage.ranks(spp, |o| species_of(scene, o)),
         })
     });
-    let n = settings.spp as f32;
+    let n = spp as f32;
     // A non-finite value would poison every composite downstream; none should arise, but an
     // image must never carry one.
     let rgba = rgba.map(|v| if v.is_finite() { v / n } else { 0.0 });

@@ -7,7 +7,7 @@ use super::lod::Draw;
 use super::scene::{Lighting, Look, Placed, Scene, Shading, Sun};
 use super::sunlight::{Caster, OwnTree, transmittance};
 use super::walk::{March, ShadowRays};
-use super::{Camera, RenderSettings, render};
+use super::{Camera, Edges, RenderSettings, render};
 use crate::bake::{mip_chain, sobel};
 use crate::geom::Ray;
 use crate::import::{Material, Mesh};
@@ -933,8 +933,8 @@ fn a_terrain_a_hundred_kilometres_away_renders_as_one_at_the_origin() {
     assert!(worst < 0.02, "{worst}");
 }
 
-#[test]
-fn the_image_is_the_same_for_any_thread_count_and_a_crop_equals_its_region() {
+/// Two boxes over a ground quad, seen at an angle: edges against the sky and the ground.
+fn two_boxes_over_ground() -> (Scene, Camera) {
     let texel = uniform_texel(
         [8, 8, 8],
         0.5,
@@ -955,37 +955,98 @@ fn the_image_is_the_same_for_any_thread_count_and_a_crop_equals_its_region() {
         },
     );
     let camera = Camera::look_at(scene.origin, DVec3::new(0.5, 1.5, 0.0), 50.0, 70, 45).unwrap();
-    let settings = RenderSettings {
-        spp: 2,
-        ..RenderSettings::default()
-    };
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| render(&scene, &camera, &settings, &|_| {}));
-    let two = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap()
-        .install(|| render(&scene, &camera, &settings, &|_| {}));
-    assert_eq!(one, two);
-    let crop = render(
-        &scene,
-        &camera,
-        &RenderSettings {
-            crop: Some([13, 7, 50, 40]),
-            ..settings
-        },
-        &|_| {},
-    );
-    for y in 7..40 {
-        for x in 13..50 {
-            let a = crop.rgba[(x - 13) + crop.width as usize * (y - 7)];
-            let b = one.rgba[x + one.width as usize * y];
-            assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "pixel {x},{y}");
+    (scene, camera)
+}
+
+#[test]
+fn the_image_is_the_same_for_any_thread_count_and_a_crop_equals_its_region() {
+    let (scene, camera) = two_boxes_over_ground();
+    // With edges sampled again too: a crop's border pixels compare with pixels outside it.
+    for edges in [
+        None,
+        Some(Edges {
+            spp: 4,
+            contrast: 0.05,
+        }),
+    ] {
+        let settings = RenderSettings {
+            spp: 2,
+            edges,
+            ..RenderSettings::default()
+        };
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| render(&scene, &camera, &settings, &|_| {}));
+        let two = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap()
+            .install(|| render(&scene, &camera, &settings, &|_| {}));
+        assert_eq!(one, two);
+        let crop = render(
+            &scene,
+            &camera,
+            &RenderSettings {
+                crop: Some([13, 7, 50, 40]),
+                ..settings
+            },
+            &|_| {},
+        );
+        for y in 7..40 {
+            for x in 13..50 {
+                let a = crop.rgba[(x - 13) + crop.width as usize * (y - 7)];
+                let b = one.rgba[x + one.width as usize * y];
+                assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "pixel {x},{y}");
+            }
         }
     }
+}
+
+/// With `edges`, a pixel that differs from a neighbour in the first pass is the pixel a
+/// render at the edges' count makes, bit for bit, and every other pixel the first pass's;
+/// the work of both passes counts.
+#[test]
+fn pixels_at_edges_are_rendered_again_at_the_edges_count() {
+    let (scene, camera) = two_boxes_over_ground();
+    let at = |spp: u32, edges: Option<Edges>| {
+        let settings = RenderSettings {
+            spp,
+            edges,
+            ..RenderSettings::default()
+        };
+        render(&scene, &camera, &settings, &|_| {})
+    };
+    let edges = Edges {
+        spp: 9,
+        contrast: 0.05,
+    };
+    let (first, more, both) = (at(1, None), at(9, None), at(1, Some(edges)));
+    let width = first.width;
+    let marked = edges.find([0, 0, width, first.height], first.frame, |x, y| {
+        first.rgba[(x + width * y) as usize]
+    });
+    let again = marked.iter().filter(|&&m| m).count();
+    assert!(
+        again > 20 && again < marked.len() / 2,
+        "{again} of {}",
+        marked.len()
+    );
+    assert_eq!(both.sampled_again, again as u64);
+    for (i, &m) in marked.iter().enumerate() {
+        let expected = if m { &more } else { &first };
+        let bits = |f: &super::Film| f.rgba[i].map(f32::to_bits);
+        assert_eq!(bits(&both), bits(expected), "pixel {i}, at an edge: {m}");
+        let work = first.samples[i] + if m { more.samples[i] } else { 0.0 };
+        assert_eq!(both.samples[i], work, "pixel {i}");
+    }
+    let total = |f: &super::Film| f.work().0 * f.rgba.len() as f64;
+    let again_work: f64 = (0..marked.len())
+        .filter(|&i| marked[i])
+        .map(|i| f64::from(more.samples[i]))
+        .sum();
+    assert_eq!(total(&both), total(&first) + again_work);
 }
 
 /// A leaf-normal moment turns with its instance: the moment of a turned normal is the turned
