@@ -513,7 +513,7 @@ pub struct RenderArgs {
     pub edge_spp: u32,
     /// The least difference to a neighbour that makes a pixel an edge (--edge-spp): in alpha,
     /// or in a colour channel compared as c / (1 + c).
-    #[arg(long, default_value_t = 0.05, value_name = "C", value_parser = non_negative)]
+    #[arg(long, default_value_t = 0.05, value_name = "C", value_parser = non_negative, requires = "edge_spp")]
     pub edge_contrast: f64,
     /// What draws the trees: their 3D textures, the glTF models the textures were baked
     /// from (the conventional method; the ground truth at many samples per pixel), or each

@@ -717,7 +717,7 @@ fn cryptomatte_layers_cover_each_pixel_by_species_and_tree() {
 /// against the sky): against a 64-spp mesh render, alpha's error falls by a quarter or more,
 /// colour's does not rise, and the run says how many pixels it rendered again (measured:
 /// texel RGB 0.0078 -> 0.0056, alpha 0.034 -> 0.023; hybrid 0.0097 -> 0.0054, 0.038 ->
-/// 0.020). An edge count no larger than --spp is refused.
+/// 0.020). An edge count no larger than --spp is refused, and a contrast without a count.
 #[test]
 fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
     let dir = small_forest();
@@ -773,4 +773,8 @@ fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("--edge-spp 4"), "{}", stderr(&o));
     assert!(!d.join("refused.exr").exists());
+    // A contrast without a count is a usage error.
+    let o = render("refused.exr", &["texel", "--edge-contrast", "0.1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--edge-spp"), "{}", stderr(&o));
 }
