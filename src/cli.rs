@@ -505,12 +505,12 @@ pub struct RenderArgs {
     /// a grid of equal cells over the pixel.
     #[arg(long)]
     pub jitter: bool,
-    /// Samples per pixel for a pixel at an edge: after a first pass at --spp, each pixel that
-    /// differs from a neighbour by more than --edge-contrast is rendered again at this count
-    /// (silhouettes against the sky and the terrain, where one ray sees all or none of what
-    /// covers part of the pixel). 0: every pixel at --spp.
-    #[arg(long, default_value_t = 0, value_name = "SPP", value_parser = clap::value_parser!(u32).range(0..=65536))]
-    pub edge_spp: u32,
+    /// Samples per pixel for a pixel at an edge, more than --spp: after a first pass at --spp,
+    /// each pixel that differs from a neighbour by more than --edge-contrast is rendered again
+    /// at this count (silhouettes against the sky and the terrain, where one ray sees all or
+    /// none of what covers part of the pixel). Without it every pixel is rendered at --spp.
+    #[arg(long, value_name = "SPP", value_parser = clap::value_parser!(u32).range(2..=65536))]
+    pub edge_spp: Option<u32>,
     /// The least difference to a neighbour that makes a pixel an edge (--edge-spp): in alpha,
     /// or in a colour channel compared as c / (1 + c).
     #[arg(long, default_value_t = 0.05, value_name = "C", value_parser = non_negative, requires = "edge_spp")]

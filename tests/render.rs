@@ -113,7 +113,18 @@ fn a_crop_equals_its_region_of_the_full_frame_and_threads_do_not_matter() {
     // Shadow rays from the cached depths, whose grids are built by whichever thread needs
     // them first.
     let cached = ["--shadows", "cached"];
-    for method in [&[][..], &hybrid[..], &cached[..]] {
+    // Pixels at edges rendered again: a crop's border compares with pixels outside it.
+    let edges = [
+        "--method",
+        "hybrid",
+        "--lod-switch",
+        "2",
+        "--lod-band",
+        "2",
+        "--edge-spp",
+        "4",
+    ];
+    for method in [&[][..], &hybrid[..], &cached[..], &edges[..]] {
         let run = |extra: &[&str]| {
             let mut a = extra.to_vec();
             a.extend_from_slice(&["--half", "--aov", "lod,canopy"]);
@@ -378,6 +389,16 @@ fn assert_same_bytes(dir: &Path, a: &str, b: &str) {
     assert!(read(a) == read(b), "{a} and {b} differ");
 }
 
+/// The colour's and alpha's RMSE of `image` against `reference`, both in `dir`
+/// (`texel compare --json`).
+fn rmse_against(dir: &Path, image: &str, reference: &str) -> [f64; 2] {
+    let o = run(&["compare", image, reference, "--json"], dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let all = &json["all"];
+    ["rgb", "alpha"].map(|c| all[c]["rmse"].as_f64().unwrap())
+}
+
 /// Every method's samples go through their strata's centres unless `--jitter` asks for random
 /// points: at 1 spp on the small forest (128 x 72) the centred image lies nearer an unbiased
 /// (jittered) 64-spp mesh render than jittered images of three seeds, for the texel method by
@@ -409,12 +430,7 @@ fn centred_samples_land_nearer_the_reference_than_jittered_ones_for_every_method
         "reference.exr",
         &["--method", "mesh", "--spp", "64", "--jitter", "--seed", "9"],
     );
-    let error = |image: &str| {
-        let o = run(&["compare", image, "reference.exr", "--json"], d);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        json["all"]["rgb"]["rmse"].as_f64().unwrap()
-    };
+    let error = |image: &str| rmse_against(d, image, "reference.exr")[0];
     for (method, margin) in [("texel", 0.9), ("mesh", 1.0), ("hybrid", 1.0)] {
         render("centred.exr", &["--method", method]);
         let centred = error("centred.exr");
@@ -717,7 +733,8 @@ fn cryptomatte_layers_cover_each_pixel_by_species_and_tree() {
 /// against the sky): against a 64-spp mesh render, alpha's error falls by a quarter or more,
 /// colour's does not rise, and the run says how many pixels it rendered again (measured:
 /// texel RGB 0.0078 -> 0.0056, alpha 0.034 -> 0.023; hybrid 0.0097 -> 0.0054, 0.038 ->
-/// 0.020). An edge count no larger than --spp is refused, and a contrast without a count.
+/// 0.020). An edge count no larger than --spp is refused (exit 1, as for other flags that
+/// contradict each other), and a contrast without a count or a count below 2 (exit 2).
 #[test]
 fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
     let dir = small_forest();
@@ -742,16 +759,7 @@ fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
     };
     let o = render("reference.exr", &["mesh", "--spp", "64", "--jitter"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let error = |image: &str| {
-        let o = run(&["compare", image, "reference.exr", "--json"], d);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        let all = &json["all"];
-        [
-            all["rgb"]["rmse"].as_f64().unwrap(),
-            all["alpha"]["rmse"].as_f64().unwrap(),
-        ]
-    };
+    let error = |image: &str| rmse_against(d, image, "reference.exr");
     for method in ["texel", "hybrid"] {
         let o = render("once.exr", &[method]);
         assert!(o.status.success(), "{}", stderr(&o));
@@ -773,8 +781,12 @@ fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("--edge-spp 4"), "{}", stderr(&o));
     assert!(!d.join("refused.exr").exists());
-    // A contrast without a count is a usage error.
-    let o = render("refused.exr", &["texel", "--edge-contrast", "0.1"]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("--edge-spp"), "{}", stderr(&o));
+    // A contrast without a count, and a count below 2, are usage errors.
+    for flags in [&["--edge-contrast", "0.1"][..], &["--edge-spp", "1"][..]] {
+        let mut a = vec!["texel"];
+        a.extend_from_slice(flags);
+        let o = render("refused.exr", &a);
+        assert_eq!(o.status.code(), Some(2), "{flags:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--edge-spp"), "{}", stderr(&o));
+    }
 }

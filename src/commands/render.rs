@@ -45,11 +45,12 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
             args.instances.display()
         );
     }
-    if args.edge_spp > 0 && args.edge_spp <= args.spp {
+    if let Some(edge_spp) = args.edge_spp
+        && edge_spp <= args.spp
+    {
         anyhow::bail!(
-            "--edge-spp {} would render edges again with no more samples than --spp {} gave them; \
-             give more, or 0 for none",
-            args.edge_spp,
+            "--edge-spp {edge_spp} would render edges again with no more samples than --spp {} \
+             gave them; give more, or leave it out",
             args.spp
         );
     }
@@ -297,7 +298,7 @@ fn plan(args: &RenderArgs, limits: &Limits, shots: &[Shot]) -> anyhow::Result<Ou
     let pixels = u64::from(args.width) * u64::from(args.height);
     limits.check_pixels(pixels, "--width x --height")?;
     // Edges sampled again: a mark per pixel, and the index of each one marked.
-    let per_pixel = aovs(args).bytes_per_pixel() + if args.edge_spp > 0 { 5 } else { 0 };
+    let per_pixel = aovs(args).bytes_per_pixel() + if args.edge_spp.is_some() { 5 } else { 0 };
     check_memory(
         pixels.saturating_mul(per_pixel),
         &format!("a {}x{} frame", args.width, args.height),
@@ -406,8 +407,8 @@ fn settings(args: &RenderArgs, method: MethodArg) -> RenderSettings {
         crop: args.crop,
         seed: args.seed,
         lod_seed: args.seed,
-        edges: (args.edge_spp > 0).then_some(render::Edges {
-            spp: args.edge_spp,
+        edges: args.edge_spp.map(|spp| render::Edges {
+            spp,
             contrast: args.edge_contrast as f32,
         }),
         mattes: args.aov.contains(&AovArg::Cryptomatte),
@@ -501,13 +502,12 @@ fn summary(
     } else {
         work
     };
-    let work = if args.edge_spp > 0 {
-        format!(
-            "{work}, {} pixels at edges rendered again at {} spp",
-            film.sampled_again, args.edge_spp
-        )
-    } else {
-        work
+    let work = match args.edge_spp {
+        Some(spp) => format!(
+            "{work}, {} pixels at edges rendered again at {spp} spp",
+            film.sampled_again
+        ),
+        None => work,
     };
     let memory = texel_forest::limits::peak_memory()
         .map_or(String::new(), |b| format!(", peak memory {} MiB", b >> 20));

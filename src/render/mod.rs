@@ -224,12 +224,13 @@ fn sample_edges(
         if (region[0]..region[2]).contains(&x) && (region[1]..region[3]).contains(&y) {
             film.rgba[(x - region[0] + film.width * (y - region[1])) as usize]
         } else {
+            // Every neighbour outside the region that `find` asks for is in the ring.
             ring.get(&(x, y)).copied().unwrap_or([0.0; 4])
         }
     });
-    let places: Vec<u32> = (0..at_edges.len() as u32)
-        .filter(|&i| at_edges[i as usize])
-        .collect();
+    let mut places = Vec::with_capacity(at_edges.iter().filter(|&&m| m).count());
+    places.extend((0..at_edges.len() as u32).filter(|&i| at_edges[i as usize]));
+    drop(at_edges);
     let more = Sampling::new(camera, edges.spp);
     let shared = std::sync::Mutex::new(film);
     places.par_chunks(64).for_each(|chunk| {
