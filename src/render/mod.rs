@@ -200,7 +200,9 @@ impl Sampling {
 
 /// Renders again, at `edges.spp`, the pixels of `film` (the first pass, at `base`) that
 /// differ from a neighbour ([`Edges::find`]). A crop's pixels at its border are compared with
-/// the first pass of the pixels just outside it, rendered here.
+/// the first pass of the pixels just outside it, rendered here; their work is not the film's,
+/// so a crop's work stays its region's. The second pass is not reported to `progress`, whose
+/// count is the frame's pixels.
 fn sample_edges(
     scene: &Scene,
     camera: &Camera,
