@@ -389,6 +389,33 @@ fn assert_same_bytes(dir: &Path, a: &str, b: &str) {
     assert!(read(a) == read(b), "{a} and {b} differ");
 }
 
+/// `texel render forest.instances -o out` in `dir`, 128 x 72 pixels at a 40-degree field of
+/// view from `eye` (the whole flag) towards `target`, with `extra`.
+fn render_128x72(
+    dir: &Path,
+    (eye, target): (&str, &str),
+    out: &str,
+    extra: &[&str],
+) -> std::process::Output {
+    let mut a = vec![
+        "render",
+        "forest.instances",
+        "-o",
+        out,
+        eye,
+        "--target",
+        target,
+        "--fov",
+        "40",
+        "--width",
+        "128",
+        "--height",
+        "72",
+    ];
+    a.extend_from_slice(extra);
+    run(&a, dir)
+}
+
 /// The colour's and alpha's RMSE of `image` against `reference`, both in `dir`
 /// (`texel compare --json`).
 fn rmse_against(dir: &Path, image: &str, reference: &str) -> [f64; 2] {
@@ -408,22 +435,10 @@ fn rmse_against(dir: &Path, image: &str, reference: &str) -> [f64; 2] {
 fn centred_samples_land_nearer_the_reference_than_jittered_ones_for_every_method() {
     let dir = small_forest();
     let d = dir.path();
-    let view = [
-        "--eye=-150,450,260",
-        "--target",
-        "0,300,0",
-        "--fov",
-        "40",
-        "--width",
-        "128",
-        "--height",
-        "72",
-    ];
     let render = |out: &str, extra: &[&str]| {
-        let mut a = vec!["render", "forest.instances", "-o", out, "-q"];
-        a.extend_from_slice(&view);
+        let mut a = vec!["-q"];
         a.extend_from_slice(extra);
-        let o = run(&a, d);
+        let o = render_128x72(d, ("--eye=-150,450,260", "0,300,0"), out, &a);
         assert!(o.status.success(), "{}", stderr(&o));
     };
     render(
@@ -739,23 +754,11 @@ fn cryptomatte_layers_cover_each_pixel_by_species_and_tree() {
 fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
     let dir = small_forest();
     let d = dir.path();
-    let view = [
-        "--eye=-150,330,260",
-        "--target",
-        "0,340,0",
-        "--fov",
-        "40",
-        "--width",
-        "128",
-        "--height",
-        "72",
-        "--method",
-    ];
+    // Looking across the ridge, so that crowns and terrain stand against the sky.
     let render = |out: &str, extra: &[&str]| {
-        let mut a = vec!["render", "forest.instances", "-o", out];
-        a.extend_from_slice(&view);
+        let mut a = vec!["--method"];
         a.extend_from_slice(extra);
-        run(&a, d)
+        render_128x72(d, ("--eye=-150,330,260", "0,340,0"), out, &a)
     };
     let o = render("reference.exr", &["mesh", "--spp", "64", "--jitter"]);
     assert!(o.status.success(), "{}", stderr(&o));
