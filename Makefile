@@ -28,7 +28,7 @@ test:
 
 # Set TEXEL_BASELINE to another build's texel binary to time both in turn (render bench).
 bench:
-	$(CARGO) bench --bench bake --bench place --bench render --bench million
+	$(CARGO) bench --bench bake --bench place --bench render --bench million --bench bvh
 
 accuracy:
 	$(CARGO) run --release --example accuracy -- --anisotropy
