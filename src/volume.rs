@@ -102,6 +102,27 @@ fn inside(c: Vec3, dims: [usize; 3]) -> bool {
         && c.z <= dims[2] as f32
 }
 
+/// A point's trilinear stencil along each axis of a grid ([`clamped_axis`]), where the point
+/// lies in the grid: worked out once, it serves both the stencil's bit ([`Stencils::holds_at`])
+/// and the cells' reads ([`Level::fetch_at`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Axes([(usize, usize, f32); 3]);
+
+impl Axes {
+    /// The axes at `c` (cell units from the grid origin) in a grid of `dims` cells; `None`
+    /// outside it, where nothing is read.
+    #[inline(always)]
+    pub fn at(c: Vec3, dims: [usize; 3]) -> Option<Axes> {
+        inside(c, dims).then(|| {
+            Axes([
+                clamped_axis(c.x, dims[0]),
+                clamped_axis(c.y, dims[1]),
+                clamped_axis(c.z, dims[2]),
+            ])
+        })
+    }
+}
+
 /// Linear interpolation's two cells and weight along one axis of `n` cells (centres at
 /// i + 0.5) at `v`, clamped to the edge: `(i0, i1, weight of i1)`.
 #[inline(always)]
@@ -166,13 +187,15 @@ impl Level {
     /// their trilinear weights, clamped to the edge inside the grid; `None` outside it.
     #[inline(always)]
     pub fn trilinear(&self, c: Vec3) -> Option<([usize; 8], [f32; 8])> {
+        Some(self.stencil(&Axes::at(c, self.dims)?))
+    }
+
+    /// [`Level::trilinear`] from its axes, worked out once for a query that also looks at
+    /// [`Stencils::holds_at`] first.
+    #[inline(always)]
+    fn stencil(&self, axes: &Axes) -> ([usize; 8], [f32; 8]) {
         let d = self.dims;
-        if !inside(c, d) {
-            return None;
-        }
-        let (x0, x1, fx) = clamped_axis(c.x, d[0]);
-        let (y0, y1, fy) = clamped_axis(c.y, d[1]);
-        let (z0, z1, fz) = clamped_axis(c.z, d[2]);
+        let [(x0, x1, fx), (y0, y1, fy), (z0, z1, fz)] = axes.0;
         let (sx, sxy) = (d[0], d[0] * d[1]);
         let idx = [
             x0 + sx * y0 + sxy * z0,
@@ -195,7 +218,7 @@ impl Level {
             gx * fy * fz,
             fx * fy * fz,
         ];
-        Some((idx, w))
+        (idx, w)
     }
 
     /// Trilinear interpolation of a per-cell field at `p` (cell units from the grid origin).
@@ -227,9 +250,17 @@ impl Level {
     /// moments, needed only by a lit leaf, are [`Level::foliage_leaves`].
     #[inline]
     pub fn fetch(&self, c: Vec3) -> Fetch {
-        let Some((idx, w)) = self.trilinear(c) else {
-            return Fetch::default();
-        };
+        match Axes::at(c, self.dims) {
+            Some(axes) => self.fetch_at(&axes),
+            None => Fetch::default(),
+        }
+    }
+
+    /// [`Level::fetch`] at the point `axes` were worked out for ([`Axes::at`], with this
+    /// level's dimensions).
+    #[inline]
+    pub fn fetch_at(&self, axes: &Axes) -> Fetch {
+        let (idx, w) = self.stencil(axes);
         let mut f = Fetch::default();
         for p in 0..2 {
             f.density[p] = self.weighted_density(p, &idx, &w);
@@ -313,20 +344,25 @@ impl Stencils {
         }
     }
 
+    /// The dimensions of the level these stencils are of.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
     /// Whether the trilinear field can be non-zero at `c` (cell units from the grid origin):
     /// false outside the grid (and at a non-finite point), where [`Level::trilinear`] reads
     /// nothing, and where the stencil at `c` is empty.
     #[inline]
     pub fn holds(&self, c: Vec3) -> bool {
+        Axes::at(c, self.dims).is_some_and(|axes| self.holds_at(&axes))
+    }
+
+    /// [`Stencils::holds`] at the point `axes` were worked out for (with these stencils'
+    /// dimensions): a sample that goes on to [`Level::fetch_at`] works them out once.
+    #[inline]
+    pub fn holds_at(&self, axes: &Axes) -> bool {
         let d = self.dims;
-        if !inside(c, d) {
-            return false;
-        }
-        let (x, y, z) = (
-            clamped_axis(c.x, d[0]).0,
-            clamped_axis(c.y, d[1]).0,
-            clamped_axis(c.z, d[2]).0,
-        );
+        let [(x, ..), (y, ..), (z, ..)] = axes.0;
         let i = x + d[0] * (y + d[1] * z);
         self.bits[i / 64] >> (i % 64) & 1 != 0
     }

@@ -44,6 +44,7 @@ use super::sunlight::{Caster, MAX_OWN, OwnTree, Strata, roulette, sun_light};
 use super::walk::{Active, March, Walk, floor, segment_end};
 use crate::geom::{Ray, TriangleHit};
 use crate::rng::{self, purpose};
+use crate::volume::Axes;
 
 /// Radiance along the ray from the eye (the renderer frame's origin) in direction `dir`, every
 /// tree drawn from its texture; `spread` is the angle the sample's share of its pixel subtends
@@ -420,16 +421,20 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
         if a.found_empty_at(ts) {
             continue;
         }
-        let c = a.c0 + a.dc * ts;
-        // Most steps through a crown are in air: one bit says so without reading a cell.
-        if !scene.occupancy[a.model as usize][a.level].stencils.holds(c) {
+        // Most steps through a crown are in air: one bit says so without reading a cell. The
+        // point's place in the grid is worked out once, for the bit and the cells' reads.
+        let stencils = &scene.occupancy[a.model as usize][a.level].stencils;
+        let Some(axes) = Axes::at(a.c0 + a.dc * ts, stencils.dims()) else {
+            continue;
+        };
+        if !stencils.holds_at(&axes) {
             continue;
         }
         m.read = true;
         let inst = scene.instances.get(a.instance);
         let look = &scene.looks[inst.look as usize];
         let level = &scene.texels[look.texel].levels[a.level];
-        let f = level.fetch(c);
+        let f = level.fetch_at(&axes);
         let (wood, foliage) = (
             a.extinction(f.density[0]),
             a.extinction(look.foliage * f.density[1]),
