@@ -380,56 +380,82 @@ impl Waiting {
     }
 }
 
-/// The binary SAH tree over `boxes` (node 0 the root) and the primitive order its leaves
-/// index.
+/// The binary SAH tree over `boxes` (node 0 the root, each inner node's two children side by
+/// side) and the primitive order its leaves index.
 fn build_binary(boxes: &[Aabb]) -> (Vec<Binary>, Vec<u32>) {
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
     let centres: Vec<Vec3> = boxes.iter().map(Aabb::centre).collect();
-    let root = Binary {
-        bounds: boxes.iter().fold(Aabb::EMPTY, |b, x| b.union(*x)),
-        start: 0,
-        count: boxes.len() as u32,
-    };
-    let mut nodes = vec![root];
-    let mut todo = vec![(0usize, 0u32)];
-    while let Some((n, depth)) = todo.pop() {
-        let Binary { start, count, .. } = nodes[n];
-        if count as usize <= LEAF_SIZE {
-            continue;
-        }
-        let range = start as usize..(start + count) as usize;
-        let part = &mut order[range.clone()];
-        // Where no plane beats a leaf (centres that coincide) the median still splits: every
-        // leaf holds at most LEAF_SIZE primitives, which callers' packets rely on.
-        let sah = if depth < SAH_DEPTH {
-            split(boxes, &centres, part)
-        } else {
-            None
-        };
-        let mid = sah.unwrap_or_else(|| median(&centres, part));
-        let mid = range.start + mid;
-        let bounds_of = |r: std::ops::Range<usize>| {
-            order[r]
-                .iter()
-                .fold(Aabb::EMPTY, |b, &i| b.union(boxes[i as usize]))
-        };
-        let left = nodes.len();
-        nodes.push(Binary {
-            bounds: bounds_of(range.start..mid),
-            start: range.start as u32,
-            count: (mid - range.start) as u32,
-        });
-        nodes.push(Binary {
-            bounds: bounds_of(mid..range.end),
-            start: mid as u32,
-            count: (range.end - mid) as u32,
-        });
-        nodes[n].start = left as u32;
-        nodes[n].count = 0;
-        todo.push((left, depth + 1));
-        todo.push((left + 1, depth + 1));
-    }
+    let bounds = boxes.iter().fold(Aabb::EMPTY, |b, x| b.union(*x));
+    let nodes = subtree(boxes, &centres, &mut order, 0, bounds, 0);
     (nodes, order)
+}
+
+/// Primitives below which a subtree is built on the calling thread: the two halves of a larger
+/// one are built side by side.
+const PARALLEL_BUILD: usize = 4096;
+
+/// The binary tree over `part`, the primitives at `offset..` of the whole order, whose bounds
+/// are `bounds`, at `depth`: its nodes, its root first, inner nodes' children indexing the
+/// returned nodes. Each split depends only on the primitives it splits, so the tree (and the
+/// order) is the same whichever thread builds which half, and whatever the thread count.
+fn subtree(
+    boxes: &[Aabb],
+    centres: &[Vec3],
+    part: &mut [u32],
+    offset: usize,
+    bounds: Aabb,
+    depth: u32,
+) -> Vec<Binary> {
+    let count = part.len();
+    let leaf = Binary {
+        bounds,
+        start: offset as u32,
+        count: count as u32,
+    };
+    if count <= LEAF_SIZE {
+        return vec![leaf];
+    }
+    // Where no plane beats a leaf (centres that coincide) the median still splits: every
+    // leaf holds at most LEAF_SIZE primitives, which callers' packets rely on.
+    let sah = if depth < SAH_DEPTH {
+        split(boxes, centres, part)
+    } else {
+        None
+    };
+    let mid = sah.unwrap_or_else(|| median(centres, part));
+    let (low, high) = part.split_at_mut(mid);
+    let bounds_of = |p: &[u32]| {
+        p.iter()
+            .fold(Aabb::EMPTY, |b, &i| b.union(boxes[i as usize]))
+    };
+    let (low_bounds, high_bounds) = (bounds_of(low), bounds_of(high));
+    let mut build_low = || subtree(boxes, centres, low, offset, low_bounds, depth + 1);
+    let mut build_high = || subtree(boxes, centres, high, offset + mid, high_bounds, depth + 1);
+    let (low, high) = if count >= PARALLEL_BUILD {
+        rayon::join(build_low, build_high)
+    } else {
+        (build_low(), build_high())
+    };
+    // Laid out as the root, its two children, then the rest of each child's subtree: a node
+    // at index j > 0 of the low subtree moves to j + 2, of the high one to j + low.len() + 1.
+    let mut nodes = Vec::with_capacity(1 + low.len() + high.len());
+    nodes.push(Binary {
+        bounds,
+        start: 1,
+        count: 0,
+    });
+    let place = |mut node: Binary, shift: u32| {
+        if node.count == 0 {
+            node.start += shift;
+        }
+        node
+    };
+    let (low_shift, high_shift) = (2, low.len() as u32 + 1);
+    nodes.push(place(low[0], low_shift));
+    nodes.push(place(high[0], high_shift));
+    nodes.extend(low[1..].iter().map(|&n| place(n, low_shift)));
+    nodes.extend(high[1..].iter().map(|&n| place(n, high_shift)));
+    nodes
 }
 
 /// Fills the wide tree from the binary one: each wide node takes a binary node's two children
