@@ -210,6 +210,8 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
                 &what,
             );
         }
+        // The next frame reads the grids this one built, and builds only those it adds.
+        grids = Some(scene.sun_depth);
     }
     Ok(())
 }
