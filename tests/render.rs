@@ -463,6 +463,34 @@ fn centred_samples_land_nearer_the_reference_than_jittered_ones_for_every_method
     }
 }
 
+/// A hybrid frame whose every tree is a texture (here, a switch at a hundredth of a cell)
+/// reads no model: it says so, and its image is the texel method's.
+#[test]
+fn a_hybrid_frame_that_draws_no_model_says_so_and_is_the_texel_methods_image() {
+    let dir = small_forest();
+    let d = dir.path();
+    let o = render(
+        d,
+        &[
+            "--method",
+            "hybrid",
+            "--lod-switch",
+            "0.01",
+            "-o",
+            "far.exr",
+        ],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("from their textures (hybrid: none near enough"),
+        "{err}"
+    );
+    let o = render(d, &["--method", "texel", "-o", "texel.exr"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_bytes(d, "far.exr", "texel.exr");
+}
+
 #[test]
 fn the_default_method_is_the_hybrid_where_the_models_are_there() {
     let dir = small_forest();
@@ -470,7 +498,10 @@ fn the_default_method_is_the_hybrid_where_the_models_are_there() {
     let o = render(d, &["-o", "default.exr"]);
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("from their meshes and textures"), "{err}");
+    assert!(
+        err.contains("from their meshes and textures") || err.contains("(hybrid: none near"),
+        "{err}"
+    );
     assert!(!err.contains("warning"), "{err}");
     let o = render(d, &["--method", "hybrid", "-o", "hybrid.exr"]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -78,7 +78,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         },
         limits: *limits,
     })?;
-    let method = args.method.unwrap_or_else(|| match loaded.without_meshes.take() {
+    let mut method = args.method.unwrap_or_else(|| match loaded.without_meshes.take() {
         None => MethodArg::Hybrid,
         Some(why) => {
             super::warn(&format!(
@@ -120,6 +120,8 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         .map(|s| s.name.clone())
         .collect();
     let sequence = shots.len() > 1 || shots[0].frame.is_some();
+    // Checked with the scene, read by the first frame that draws a tree from its model.
+    let mut models = loaded.models.take();
     let mut loaded = Some(loaded);
     // The sun-depth grids do not depend on the eye: built once for the whole sequence.
     let mut grids = None;
@@ -157,14 +159,37 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         if let Some(grids) = grids.take() {
             scene.reuse_sun_depth(grids);
         }
-        let build = build_start.elapsed().as_secs_f64();
         scene.shadows = !args.no_shadows;
-        let mut settings = settings(args, method);
-        if let Some(f) = shot.frame {
-            // Each frame its own noise, and the same whichever frames render with it; the
-            // hybrid's choice of drawing for each tree stays the sequence's.
-            settings.seed = rng::hash3(args.seed, u64::from(f), rng::purpose::FRAME);
+        let frame_settings = |method| {
+            let mut settings = settings(args, method);
+            if let Some(f) = shot.frame {
+                // Each frame its own noise, and the same whichever frames render with it; the
+                // hybrid's choice of drawing for each tree stays the sequence's.
+                settings.seed = rng::hash3(args.seed, u64::from(f), rng::purpose::FRAME);
+            }
+            settings
+        };
+        let mut settings = frame_settings(method);
+        if render::draws_models(&scene, &camera, &settings) {
+            match models.as_mut().map(|m| m.get()) {
+                Some(Ok(meshes)) => scene = scene.with_meshes(meshes.to_vec()),
+                // The default method draws what there is: every tree from its texture, this
+                // frame and the ones after it, as when the models fail their check.
+                Some(Err(why)) if args.method.is_none() => {
+                    super::warn(&format!(
+                        "{}: every tree drawn from its texture from here on (the hybrid method, the default, needs the models the textures were baked from): {:#}; --method texel asks for this without the warning",
+                        args.instances.display(),
+                        anyhow::Error::from(why)
+                    ));
+                    models = None;
+                    method = MethodArg::Texel;
+                    settings = frame_settings(method);
+                }
+                Some(Err(why)) => return Err(why.into()),
+                None => bail!("this frame draws trees from their models, which were not loaded"),
+            }
         }
+        let build = build_start.elapsed().as_secs_f64();
         let pixels = args.crop.map_or(
             u64::from(args.width) * u64::from(args.height),
             |[x0, y0, x1, y1]| u64::from(x1 - x0) * u64::from(y1 - y0),
@@ -490,6 +515,11 @@ fn summary(
             format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
         ),
         MethodArg::Mesh => ("meshes", format!("{shadow_rays:.1} shadow rays per pixel")),
+        // A hybrid frame whose trees are all far enough to be textures read no model.
+        MethodArg::Hybrid if scene.meshes.is_empty() => (
+            "textures (hybrid: none near enough to be drawn from its model)",
+            format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),
+        ),
         MethodArg::Hybrid => (
             "meshes and textures",
             format!("{samples:.1} volume samples and {shadow_rays:.1} shadow rays per pixel"),

@@ -10,7 +10,7 @@ use super::mesh_tests::{SQUARE, cuboid, material, quads};
 use super::scene::{Lighting, Look, Placed, Scene, Shading, Sun, TreeMesh};
 use super::tests::{HEAD_ON, PLAIN, ground, look, placed, uniform_texel};
 use super::walk::March;
-use super::{Camera, Film, Method, RenderSettings, render};
+use super::{Camera, Edges, Film, Method, RenderSettings, draws_models, render};
 use crate::bake::{self, BakeSettings};
 use crate::import::{AlphaMode, Mesh};
 use crate::rng::{self, purpose};
@@ -39,6 +39,11 @@ fn bark(faces: &[[Vec3; 4]], albedo: f32) -> Mesh {
 
 fn lone_tree_scene(eye: DVec3, sun: Sun) -> Scene {
     let (texel, mesh) = boxed_tree();
+    lone_tree_without_model(eye, sun, texel).with_meshes(vec![mesh])
+}
+
+/// [`lone_tree_scene`] without the tree's model, as a render that reads none builds it.
+fn lone_tree_without_model(eye: DVec3, sun: Sun, texel: crate::volume::Texel) -> Scene {
     Scene::new(
         eye,
         vec![texel],
@@ -51,7 +56,6 @@ fn lone_tree_scene(eye: DVec3, sun: Sun) -> Scene {
             sky: None,
         },
     )
-    .with_meshes(vec![mesh])
 }
 
 fn image(scene: &Scene, camera: &Camera, method: Method, lod: Lod, spp: u32) -> Film {
@@ -70,6 +74,60 @@ fn image(scene: &Scene, camera: &Camera, method: Method, lod: Lod, spp: u32) -> 
 
 fn bits(f: &Film) -> Vec<[u32; 4]> {
     f.rgba.iter().map(|p| p.map(f32::to_bits)).collect()
+}
+
+/// A frame needs the tree models only where it draws one: a hybrid frame whose samples'
+/// footprint makes the lone tree a texture does not, and renders without the model the same
+/// bits as with it; one whose footprint makes it a model does, as does the mesh method
+/// always and the texel method never; and a frame whose own samples draw no model needs them
+/// where its edges' finer samples would (`--edge-spp`).
+#[test]
+fn a_frame_needs_the_models_only_where_it_draws_one() {
+    let target = DVec3::new(0.0, 1.0, 0.0);
+    let distance = 20.0;
+    let eye = DVec3::new(0.4, 1.3, 1.0).normalize() * distance + target;
+    let scene = lone_tree_scene(eye, HEAD_ON);
+    let camera = |across: f64| {
+        let fov = (across / 2.0 / distance).atan().to_degrees() * 2.0;
+        Camera::look_at(eye, target, fov, 32, 32).unwrap()
+    };
+    let settings = |method, spp, edges| RenderSettings {
+        method,
+        spp,
+        edges,
+        ..RenderSettings::default()
+    };
+    // 16 m across at 32 pixels: half a metre a pixel, four of the box's 1/8 m cells; 3 m: a
+    // twelfth of a cell.
+    let (far, near) = (camera(16.0), camera(3.0));
+    let hybrid = settings(Method::Hybrid, 1, None);
+    assert!(!draws_models(&scene, &far, &hybrid));
+    assert!(draws_models(&scene, &near, &hybrid));
+    assert!(draws_models(&scene, &far, &settings(Method::Mesh, 1, None)));
+    assert!(!draws_models(
+        &scene,
+        &near,
+        &settings(Method::Texel, 1, None)
+    ));
+    let edges = Some(Edges {
+        spp: 64,
+        contrast: 0.05,
+    });
+    assert!(draws_models(
+        &scene,
+        &far,
+        &settings(Method::Hybrid, 1, edges)
+    ));
+
+    let (texel, _) = boxed_tree();
+    let without = lone_tree_without_model(eye, HEAD_ON, texel);
+    let a = render(&without, &far, &hybrid, &|_| {});
+    let b = render(&scene, &far, &hybrid, &|_| {});
+    assert_eq!(bits(&a), bits(&b));
+    assert!(
+        a.canopy.iter().any(|&c| c > 0.5),
+        "the tree is in the frame"
+    );
 }
 
 /// A tree whose texture cells are well below a sample's footprint is drawn as its texture,

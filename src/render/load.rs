@@ -1,8 +1,9 @@
 //! Loading what a render needs from disk: the forest, every texture its species name (the
-//! leafless one in winter), the terrain, and for the mesh method the tree models the textures
-//! were baked from. Every file is read within limits and checked against the hash its
-//! referrer recorded, so a stale input is refused before rendering starts; the paths read are
-//! returned for depfiles.
+//! leafless one in winter), the terrain, and for the mesh and hybrid methods the tree models
+//! the textures were baked from. Every file is read within limits and checked against the hash
+//! its referrer recorded, so a stale input is refused before rendering starts; the paths read
+//! are returned for depfiles. The models, checked with the rest, are read only when a frame
+//! first draws a tree from one ([`Models`]).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -38,7 +39,8 @@ pub struct SceneRequest<'a> {
     pub limits: Limits,
 }
 
-/// Whether a render loads the polygon models the textures were baked from.
+/// Whether a render checks (and, where a frame draws one, reads) the polygon models the
+/// textures were baked from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Meshes {
     /// Textures only (`--method texel`).
@@ -58,8 +60,8 @@ pub struct LoadedScene {
     pub looks: Vec<Look>,
     pub placed: Vec<Placed>,
     pub terrain: Model,
-    /// One per texel where asked for.
-    pub meshes: Option<Vec<TreeMesh>>,
+    /// Where asked for, the texels' models: checked now, read when a frame draws one.
+    pub models: Option<Models>,
     /// With [`Meshes::Prefer`], why the models were not loaded (one missing or changed).
     pub without_meshes: Option<LoadError>,
     /// Every file read, the forest first.
@@ -136,14 +138,14 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
     check_heights(path, &forest, &looks, &textures.texels)?;
     dependencies.extend(textures.paths.iter().cloned());
     let models = |dependencies: &mut Vec<PathBuf>| {
-        tree_meshes(
+        Models::check(
             &textures.texels,
             &textures.paths,
             &request.limits,
             dependencies,
         )
     };
-    let (meshes, without_meshes) = match request.meshes {
+    let (models, without_meshes) = match request.meshes {
         Meshes::Skip => (None, None),
         Meshes::Require => (Some(models(&mut dependencies)?), None),
         // All or none: the files of a model that loaded before one that failed are no
@@ -166,7 +168,7 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
         looks,
         placed,
         terrain,
-        meshes,
+        models,
         without_meshes,
         dependencies,
     })
@@ -309,75 +311,121 @@ fn check_heights(
     Ok(())
 }
 
-/// The polygon model each texel was baked from (its first recorded source, relative to the
-/// texel), refused if any of its files changed since the bake, with its foliage decided as the
-/// bake decided it.
-fn tree_meshes(
-    texels: &[Texel],
-    paths: &[PathBuf],
-    limits: &Limits,
-    dependencies: &mut Vec<PathBuf>,
-) -> Result<Vec<TreeMesh>, LoadError> {
-    let mut models = Vec::new();
-    for (t, path) in texels.iter().zip(paths) {
-        let dir = path.parent().unwrap_or(Path::new(""));
-        if t.info.sources.is_empty() {
-            return Err(LoadError::Mismatch {
-                file: path.clone(),
-                message: format!(
-                    "records no source model (made by {:?}); drawing its trees as meshes needs the glTF it was baked from",
-                    t.info.generator
-                ),
-            });
+/// The polygon models the texels were baked from (each texel's first recorded source,
+/// relative to it), for the frames that draw trees as models. Their files are checked against
+/// the texels' records when the scene is loaded ([`Models::check`]), so a stale model is
+/// refused before any frame renders, whether or not a frame needs it; they are read, and their
+/// hierarchies built, only when a frame first draws one ([`Models::get`]): a hybrid frame whose
+/// every tree is far enough to be a texture (`render::draws_models`) costs no more than the
+/// texel method's.
+pub struct Models {
+    /// Per texel: its file, its recorded sources and how it was baked (its foliage pattern).
+    texels: Vec<(
+        PathBuf,
+        Vec<provenance::SourceFile>,
+        crate::volume::BakeParameters,
+    )>,
+    limits: Limits,
+    meshes: Option<Vec<TreeMesh>>,
+}
+
+impl Models {
+    /// The models of `texels` (read from `paths`), every file of each unchanged since its
+    /// bake; the files checked go into `dependencies`.
+    fn check(
+        texels_in: &[Texel],
+        paths: &[PathBuf],
+        limits: &Limits,
+        dependencies: &mut Vec<PathBuf>,
+    ) -> Result<Models, LoadError> {
+        let texels: Vec<_> = texels_in
+            .iter()
+            .zip(paths)
+            .map(|(t, path)| {
+                (
+                    path.clone(),
+                    t.info.sources.clone(),
+                    t.info.parameters.clone(),
+                )
+            })
+            .collect();
+        for (t, (path, sources, _)) in texels_in.iter().zip(&texels) {
+            if sources.is_empty() {
+                return Err(LoadError::Mismatch {
+                    file: path.clone(),
+                    message: format!(
+                        "records no source model (made by {:?}); drawing its trees as meshes needs the glTF it was baked from",
+                        t.info.generator
+                    ),
+                });
+            }
+            dependencies.extend(verified(path, sources)?);
         }
-        let files = provenance::verify_all(&t.info.sources, dir, "it was baked", MAX_GLTF)
-            .map_err(|e| stale(path, e, "re-run texel bake"))?;
-        let m = import::load_surface(&files[0], "to draw as a tree", limits)
-            .map_err(|e| file_error(&files[0], e))?;
-        let foliage = bake::foliage_triangles(&m.mesh, &t.info.parameters)
-            .map_err(|e| file_error(path, e))?;
-        dependencies.extend(files);
-        models.push((m.mesh, foliage));
+        Ok(Models {
+            texels,
+            limits: *limits,
+            meshes: None,
+        })
     }
-    // Their hierarchies are built side by side, each the same whichever thread builds it.
-    Ok(models
-        .into_par_iter()
-        .map(|(mesh, foliage)| TreeMesh::new(mesh, foliage))
-        .collect())
+
+    /// The models, read and made ready for tracing on the first call. Their files are checked
+    /// again as they are read: a model changed since the scene was loaded is refused.
+    pub fn get(&mut self) -> Result<&[TreeMesh], LoadError> {
+        if self.meshes.is_none() {
+            let mut models = Vec::new();
+            for (path, sources, parameters) in &self.texels {
+                let files = verified(path, sources)?;
+                let m = import::load_surface(&files[0], "to draw as a tree", &self.limits)
+                    .map_err(|e| file_error(&files[0], e))?;
+                let foliage = bake::foliage_triangles(&m.mesh, parameters)
+                    .map_err(|e| file_error(path, e))?;
+                models.push((m.mesh, foliage));
+            }
+            // Their hierarchies are built side by side, each the same whichever thread builds
+            // it.
+            self.meshes = Some(
+                models
+                    .into_par_iter()
+                    .map(|(mesh, foliage)| TreeMesh::new(mesh, foliage))
+                    .collect(),
+            );
+        }
+        Ok(self.meshes.as_deref().unwrap_or_default())
+    }
+}
+
+/// The files of the model the texel at `path` was baked from, as `sources` (not empty)
+/// recorded them, each unchanged since; the glTF first.
+fn verified(path: &Path, sources: &[provenance::SourceFile]) -> Result<Vec<PathBuf>, LoadError> {
+    let dir = path.parent().unwrap_or(Path::new(""));
+    provenance::verify_all(sources, dir, "it was baked", MAX_GLTF)
+        .map_err(|e| stale(path, e, "re-run texel bake"))
 }
 
 impl LoadedScene {
     /// The scene the renderer draws, in the frame of a camera at `eye`.
     pub fn into_scene(self, eye: glam::DVec3, lighting: super::Lighting) -> super::Scene {
-        let scene = super::Scene::new(
+        super::Scene::new(
             eye,
             self.texels,
             self.looks,
             &self.placed,
             Some(self.terrain.mesh),
             lighting,
-        );
-        match self.meshes {
-            Some(m) => scene.with_meshes(m),
-            None => scene,
-        }
+        )
     }
 
     /// [`LoadedScene::into_scene`] keeping what was loaded, for the next frame of a sequence
     /// (each frame's scene is in the frame of its own eye).
     pub fn scene(&self, eye: glam::DVec3, lighting: super::Lighting) -> super::Scene {
-        let scene = super::Scene::new(
+        super::Scene::new(
             eye,
             self.texels.clone(),
             self.looks.clone(),
             &self.placed,
             Some(self.terrain.mesh.clone()),
             lighting,
-        );
-        match &self.meshes {
-            Some(m) => scene.with_meshes(m.clone()),
-            None => scene,
-        }
+        )
     }
 
     /// Height of the terrain's surface above (x, z), if any.

@@ -114,6 +114,25 @@ impl Default for RenderSettings {
     }
 }
 
+/// Whether rendering with `settings` through `camera` draws any tree of `scene` from its
+/// polygon model, and so needs [`Scene::with_meshes`]: the mesh method always; the hybrid
+/// method where the footprint of its samples (or of its edges' samples) is fine enough for a
+/// tree within the frame's reach to be a model ([`lod::Draw::simplified`]); the texel method
+/// never. A hybrid frame of a far forest then reads no model at all.
+pub fn draws_models(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> bool {
+    match settings.method {
+        Method::Texel => false,
+        Method::Mesh => true,
+        Method::Hybrid => std::iter::once(settings.spp)
+            .chain(settings.edges.map(|e| e.spp))
+            .any(|spp| {
+                let spread = Sampling::new(camera, spp).spread;
+                let draw = lod::Draw::hybrid(settings.lod, spread, lod_key(settings));
+                !matches!(draw.simplified(scene), lod::Draw::Texel)
+            }),
+    }
+}
+
 /// Renders `scene` through `camera`; `progress` is told each finished tile's pixel count.
 pub fn render(
     scene: &Scene,
@@ -137,6 +156,10 @@ pub fn render(
         .step_by(TILE as usize)
         .flat_map(|ty| (x0..x1).step_by(TILE as usize).map(move |tx| (tx, ty)))
         .collect();
+    assert!(
+        scene.meshes.len() == scene.texels.len() || !draws_models(scene, camera, settings),
+        "this frame draws trees from their models: the scene needs them (Scene::with_meshes)"
+    );
     let base = Sampling::new(camera, settings.spp);
     if settings.method == Method::Hybrid {
         scene.choose(
