@@ -319,38 +319,32 @@ fn check_heights(
 /// every tree is far enough to be a texture (`render::draws_models`) costs no more than the
 /// texel method's.
 pub struct Models {
-    /// Per texel: its file, its recorded sources and how it was baked (its foliage pattern).
-    texels: Vec<(
-        PathBuf,
-        Vec<provenance::SourceFile>,
-        crate::volume::BakeParameters,
-    )>,
+    sources: Vec<ModelSource>,
     limits: Limits,
     meshes: Option<Vec<TreeMesh>>,
+}
+
+/// Where a texel's model is and how it was baked: what reading it needs.
+struct ModelSource {
+    /// The texel's file (its recorded sources are relative to it).
+    texel: PathBuf,
+    sources: Vec<provenance::SourceFile>,
+    /// Its foliage pattern decides which triangles are leaves, as the bake decided.
+    parameters: crate::volume::BakeParameters,
 }
 
 impl Models {
     /// The models of `texels` (read from `paths`), every file of each unchanged since its
     /// bake; the files checked go into `dependencies`.
     fn check(
-        texels_in: &[Texel],
+        texels: &[Texel],
         paths: &[PathBuf],
         limits: &Limits,
         dependencies: &mut Vec<PathBuf>,
     ) -> Result<Models, LoadError> {
-        let texels: Vec<_> = texels_in
-            .iter()
-            .zip(paths)
-            .map(|(t, path)| {
-                (
-                    path.clone(),
-                    t.info.sources.clone(),
-                    t.info.parameters.clone(),
-                )
-            })
-            .collect();
-        for (t, (path, sources, _)) in texels_in.iter().zip(&texels) {
-            if sources.is_empty() {
+        let mut sources = Vec::with_capacity(texels.len());
+        for (t, path) in texels.iter().zip(paths) {
+            if t.info.sources.is_empty() {
                 return Err(LoadError::Mismatch {
                     file: path.clone(),
                     message: format!(
@@ -359,10 +353,16 @@ impl Models {
                     ),
                 });
             }
-            dependencies.extend(verified(path, sources)?);
+            let source = ModelSource {
+                texel: path.clone(),
+                sources: t.info.sources.clone(),
+                parameters: t.info.parameters.clone(),
+            };
+            dependencies.extend(source.verified()?);
+            sources.push(source);
         }
         Ok(Models {
-            texels,
+            sources,
             limits: *limits,
             meshes: None,
         })
@@ -373,12 +373,12 @@ impl Models {
     pub fn get(&mut self) -> Result<&[TreeMesh], LoadError> {
         if self.meshes.is_none() {
             let mut models = Vec::new();
-            for (path, sources, parameters) in &self.texels {
-                let files = verified(path, sources)?;
+            for source in &self.sources {
+                let files = source.verified()?;
                 let m = import::load_surface(&files[0], "to draw as a tree", &self.limits)
                     .map_err(|e| file_error(&files[0], e))?;
-                let foliage = bake::foliage_triangles(&m.mesh, parameters)
-                    .map_err(|e| file_error(path, e))?;
+                let foliage = bake::foliage_triangles(&m.mesh, &source.parameters)
+                    .map_err(|e| file_error(&source.texel, e))?;
                 models.push((m.mesh, foliage));
             }
             // Their hierarchies are built side by side, each the same whichever thread builds
@@ -394,12 +394,13 @@ impl Models {
     }
 }
 
-/// The files of the model the texel at `path` was baked from, as `sources` (not empty)
-/// recorded them, each unchanged since; the glTF first.
-fn verified(path: &Path, sources: &[provenance::SourceFile]) -> Result<Vec<PathBuf>, LoadError> {
-    let dir = path.parent().unwrap_or(Path::new(""));
-    provenance::verify_all(sources, dir, "it was baked", MAX_GLTF)
-        .map_err(|e| stale(path, e, "re-run texel bake"))
+impl ModelSource {
+    /// The model's files, each unchanged since the bake recorded it; the glTF first.
+    fn verified(&self) -> Result<Vec<PathBuf>, LoadError> {
+        let dir = self.texel.parent().unwrap_or(Path::new(""));
+        provenance::verify_all(&self.sources, dir, "it was baked", MAX_GLTF)
+            .map_err(|e| stale(&self.texel, e, "re-run texel bake"))
+    }
 }
 
 impl LoadedScene {
