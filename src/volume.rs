@@ -106,19 +106,24 @@ fn inside(c: Vec3, dims: [usize; 3]) -> bool {
 /// lies in the grid: worked out once, it serves both the stencil's bit ([`Stencils::holds_at`])
 /// and the cells' reads ([`Level::fetch_at`]).
 #[derive(Clone, Copy, Debug)]
-pub struct Axes([(usize, usize, f32); 3]);
+pub struct Axes {
+    along: [(usize, usize, f32); 3],
+    /// The grid's dimensions they were worked out for: only a grid of these reads them.
+    dims: [usize; 3],
+}
 
 impl Axes {
     /// The axes at `c` (cell units from the grid origin) in a grid of `dims` cells; `None`
     /// outside it, where nothing is read.
     #[inline(always)]
     pub fn at(c: Vec3, dims: [usize; 3]) -> Option<Axes> {
-        inside(c, dims).then(|| {
-            Axes([
+        inside(c, dims).then(|| Axes {
+            along: [
                 clamped_axis(c.x, dims[0]),
                 clamped_axis(c.y, dims[1]),
                 clamped_axis(c.z, dims[2]),
-            ])
+            ],
+            dims,
         })
     }
 }
@@ -195,7 +200,8 @@ impl Level {
     #[inline(always)]
     fn stencil(&self, axes: &Axes) -> ([usize; 8], [f32; 8]) {
         let d = self.dims;
-        let [(x0, x1, fx), (y0, y1, fy), (z0, z1, fz)] = axes.0;
+        debug_assert_eq!(axes.dims, d, "axes worked out for another grid");
+        let [(x0, x1, fx), (y0, y1, fy), (z0, z1, fz)] = axes.along;
         let (sx, sxy) = (d[0], d[0] * d[1]);
         let idx = [
             x0 + sx * y0 + sxy * z0,
@@ -362,7 +368,8 @@ impl Stencils {
     #[inline]
     pub fn holds_at(&self, axes: &Axes) -> bool {
         let d = self.dims;
-        let [(x, ..), (y, ..), (z, ..)] = axes.0;
+        debug_assert_eq!(axes.dims, d, "axes worked out for another grid");
+        let [(x, ..), (y, ..), (z, ..)] = axes.along;
         let i = x + d[0] * (y + d[1] * z);
         self.bits[i / 64] >> (i % 64) & 1 != 0
     }
