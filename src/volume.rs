@@ -108,7 +108,8 @@ fn inside(c: Vec3, dims: [usize; 3]) -> bool {
 #[derive(Clone, Copy, Debug)]
 pub struct Axes {
     along: [(usize, usize, f32); 3],
-    /// The grid's dimensions they were worked out for: only a grid of these reads them.
+    /// The grid's dimensions they were worked out for: only a grid of these reads them (the
+    /// renderer takes them from the level it reads, so no file can make them differ).
     dims: [usize; 3],
 }
 

@@ -78,17 +78,15 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         },
         limits: *limits,
     })?;
-    let mut method = args.method.unwrap_or_else(|| match loaded.without_meshes.take() {
-        None => MethodArg::Hybrid,
-        Some(why) => {
-            super::warn(&format!(
-                "{}: every tree drawn from its texture (the hybrid method, the default, needs the models the textures were baked from): {:#}; --method texel asks for this without the warning",
-                args.instances.display(),
-                anyhow::Error::from(why)
-            ));
-            MethodArg::Texel
-        }
-    });
+    let mut method = args
+        .method
+        .unwrap_or_else(|| match loaded.without_meshes.take() {
+            None => MethodArg::Hybrid,
+            Some(why) => {
+                warn_textures_only(args, "", why);
+                MethodArg::Texel
+            }
+        });
     let mut dependencies = loaded.dependencies.clone();
     planned.add_inputs(&dependencies)?;
     let views = match &args.camera_file {
@@ -171,16 +169,18 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         };
         let mut settings = frame_settings(method);
         if render::draws_models(&scene, &camera, &settings) {
-            match models.as_mut().map(|m| m.get()) {
-                Some(Ok(meshes)) => scene = scene.with_meshes(meshes.to_vec()),
+            // The last shot takes the models; earlier ones draw from a copy.
+            let meshes = if n + 1 == shots.len() {
+                models.take().map(|m| m.into_meshes())
+            } else {
+                models.as_mut().map(|m| m.get().map(<[_]>::to_vec))
+            };
+            match meshes {
+                Some(Ok(meshes)) => scene = scene.with_meshes(meshes),
                 // The default method draws what there is: every tree from its texture, this
                 // frame and the ones after it, as when the models fail their check.
                 Some(Err(why)) if args.method.is_none() => {
-                    super::warn(&format!(
-                        "{}: every tree drawn from its texture from here on (the hybrid method, the default, needs the models the textures were baked from): {:#}; --method texel asks for this without the warning",
-                        args.instances.display(),
-                        anyhow::Error::from(why)
-                    ));
+                    warn_textures_only(args, " from here on", why);
                     models = None;
                     method = MethodArg::Texel;
                     settings = frame_settings(method);
@@ -239,6 +239,16 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         grids = Some(scene.sun_depth);
     }
     Ok(())
+}
+
+/// Warns that the default method draws every tree from its texture (`when`: from which frame
+/// on, or "" for all) because the models could not be had.
+fn warn_textures_only(args: &RenderArgs, when: &str, why: load::LoadError) {
+    super::warn(&format!(
+        "{}: every tree drawn from its texture{when} (the hybrid method, the default, needs the models the textures were baked from): {:#}; --method texel asks for this without the warning",
+        args.instances.display(),
+        anyhow::Error::from(why)
+    ));
 }
 
 /// The images to render: one still, or the frames of `--frames` (else every frame of the

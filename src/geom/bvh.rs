@@ -407,13 +407,12 @@ fn subtree(
     depth: u32,
 ) -> Vec<Binary> {
     let count = part.len();
-    let leaf = Binary {
-        bounds,
-        start: offset as u32,
-        count: count as u32,
-    };
     if count <= LEAF_SIZE {
-        return vec![leaf];
+        return vec![Binary {
+            bounds,
+            start: offset as u32,
+            count: count as u32,
+        }];
     }
     // Where no plane beats a leaf (centres that coincide) the median still splits: every
     // leaf holds at most LEAF_SIZE primitives, which callers' packets rely on.

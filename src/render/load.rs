@@ -392,6 +392,12 @@ impl Models {
         }
         Ok(self.meshes.as_deref().unwrap_or_default())
     }
+
+    /// [`Models::get`], handing the models over: for the last frame that needs them.
+    pub fn into_meshes(mut self) -> Result<Vec<TreeMesh>, LoadError> {
+        self.get()?;
+        Ok(self.meshes.take().unwrap_or_default())
+    }
 }
 
 impl ModelSource {

@@ -126,9 +126,8 @@ pub fn draws_models(scene: &Scene, camera: &Camera, settings: &RenderSettings) -
         Method::Hybrid => std::iter::once(settings.spp)
             .chain(settings.edges.map(|e| e.spp))
             .any(|spp| {
-                let spread = Sampling::new(camera, spp).spread;
-                let draw = lod::Draw::hybrid(settings.lod, spread, lod_key(settings));
-                !matches!(draw.simplified(scene), lod::Draw::Texel)
+                let draw = Sampling::new(camera, spp).hybrid_draw(scene, settings);
+                !matches!(draw, lod::Draw::Texel)
             }),
     }
 }
@@ -156,15 +155,15 @@ pub fn render(
         .step_by(TILE as usize)
         .flat_map(|ty| (x0..x1).step_by(TILE as usize).map(move |tx| (tx, ty)))
         .collect();
+    // A caller's mistake, not an input's: `texel render` gives a frame its models wherever
+    // this holds, or draws it from textures and says why.
     assert!(
         scene.meshes.len() == scene.texels.len() || !draws_models(scene, camera, settings),
         "this frame draws trees from their models: the scene needs them (Scene::with_meshes)"
     );
     let base = Sampling::new(camera, settings.spp);
     if settings.method == Method::Hybrid {
-        scene.choose(
-            &lod::Draw::hybrid(settings.lod, base.spread, lod_key(settings)).simplified(scene),
-        );
+        scene.choose(&base.hybrid_draw(scene, settings));
     }
     // Each tile's pixels go into the film as soon as the tile is done, under a lock held for
     // the copy alone: the film is the run's one image-sized allocation (pixels gathered
@@ -218,6 +217,12 @@ impl Sampling {
             // finest level's, not to the pixel-sized level's bias.
             spread: camera.pixel_angle() as f32 / (spp as f32).sqrt(),
         }
+    }
+
+    /// How the hybrid method's samples at this footprint draw the trees of `scene`, as
+    /// cheaply as it allows (`Draw::simplified`).
+    fn hybrid_draw(&self, scene: &Scene, settings: &RenderSettings) -> lod::Draw {
+        lod::Draw::hybrid(settings.lod, self.spread, lod_key(settings)).simplified(scene)
     }
 }
 
