@@ -35,11 +35,12 @@
 
 use glam::Vec3;
 
+use super::leaves::VisibleNormals;
 use super::lod::{Draw, Lod};
 use super::matte;
 use super::mesh::{self, TreeHit};
 use super::scene::Scene;
-use super::shading::{Radiance, shade, shade_ground, sun_radiance};
+use super::shading::{Radiance, shade, shade_ground, shade_leaves, sun_radiance};
 use super::sunlight::{Caster, MAX_OWN, OwnTree, Strata, roulette, sun_light};
 use super::walk::{Active, March, Walk, floor, segment_end};
 use crate::geom::{Ray, TriangleHit};
@@ -285,7 +286,7 @@ impl RayDraws {
         rng::along(self.part, n, rng::SILVER)
     }
 
-    /// Sample `n`'s leaf normal's two numbers (`render::leaves`).
+    /// The shift of sample `n`'s lattice of leaf normals (`render::leaves`).
     fn leaf(&self, n: u64) -> [f32; 2] {
         rng::along2(self.leaf, n).map(|x| x as f32)
     }
@@ -370,8 +371,8 @@ fn scatter(
     if foliage_scatters {
         let u = s.draws.leaf(segment);
         let leaves = leaf_moment(scene, active, s.ts);
-        let n = super::leaves::visible_normal(leaves.map(|v| v / m.foliage), -dir, u);
-        shade(scene, albedo, Some(n), lit, -dir)
+        let normals = VisibleNormals::new(leaves.map(|v| v / m.foliage), -dir).lattice(u);
+        shade_leaves(scene, albedo, &normals, lit, -dir)
     } else {
         shade(scene, albedo, wood_normal, lit, -dir)
     }

@@ -21,52 +21,102 @@
 //!
 //! The distribution is taken to be the SGGX microflake distribution (Heitz, Dupuy, Crassin and
 //! Dachsbacher 2015) with matrix `S = M + eps I` (eps keeps flat leaves finite): exact for
-//! leaves all alike and for leaves facing every way, and smooth between. `f` is estimated by
-//! one visible normal per volume sample, drawn by the paper's closed-form sampler, then shaded
-//! with the same Lambert and Phong terms as a surface: unbiased for the model, and the
-//! renderer's samples average it.
+//! leaves all alike and for leaves facing every way, and smooth between. `f` is estimated at
+//! each lit volume sample by [`DRAWS`] visible normals, drawn by the paper's closed-form
+//! sampler from a shifted lattice, each shaded with the same Lambert and Phong terms as a
+//! surface: unbiased for the model, and the renderer's samples average it.
 
 use glam::Vec3;
 
 /// Keeps the matrix of perfectly flat leaves invertible.
 const EPSILON: f32 = 1e-3;
 
+/// How many leaf normals shade one lit foliage sample. Its shadow ray, which costs far more
+/// than a normal, serves them all; a single normal left the leaves' own response as one of
+/// the larger parts of a 1-spp frame's noise (README, *Leaf normals per sample*).
+pub const DRAWS: usize = 5;
+
+/// The second coordinate's step between the lattice's points: the Fibonacci lattice of
+/// [`DRAWS`] = 5 points, generator (1, 3), spreads them evenly over the unit square.
+const LATTICE_STEP: f32 = 3.0 / DRAWS as f32;
+
 /// A leaf normal drawn from the visible normals of `leaves` (`[xx, yy, zz, xy, xz, yz]`) seen
 /// from the unit direction `v`, by the uniforms `u`: on the side `v` is on (`n . v >= 0`).
 pub fn visible_normal(leaves: [f32; 6], v: Vec3, u: [f32; 2]) -> Vec3 {
-    let [xx, yy, zz, xy, xz, yz] = leaves;
-    let s = |a: Vec3, b: Vec3| {
-        a.x * b.x * (xx + EPSILON)
-            + a.y * b.y * (yy + EPSILON)
-            + a.z * b.z * (zz + EPSILON)
-            + (a.x * b.y + a.y * b.x) * xy
-            + (a.x * b.z + a.z * b.x) * xz
-            + (a.y * b.z + a.z * b.y) * yz
-    };
-    let wi = v;
-    let (wk, wj) = wi.any_orthonormal_pair();
-    let (s_kk, s_jj, s_ii) = (s(wk, wk), s(wj, wj), s(wi, wi));
-    let (s_kj, s_ki, s_ji) = (s(wk, wj), s(wk, wi), s(wj, wi));
-    let det = s_kk * s_jj * s_ii - s_kj * s_kj * s_ii - s_ki * s_ki * s_jj - s_ji * s_ji * s_kk
-        + 2.0 * s_kj * s_ki * s_ji;
-    let sqrt_det = det.abs().sqrt();
-    let inv_sqrt_ii = 1.0 / s_ii.max(f32::MIN_POSITIVE).sqrt();
-    let tmp = (s_jj * s_ii - s_ji * s_ji).max(f32::MIN_POSITIVE).sqrt();
-    let mk = Vec3::new(sqrt_det / tmp, 0.0, 0.0);
-    let mj = Vec3::new(
-        -inv_sqrt_ii * (s_ki * s_ji - s_kj * s_ii) / tmp,
-        inv_sqrt_ii * tmp,
-        0.0,
-    );
-    let mi = Vec3::new(inv_sqrt_ii * s_ki, inv_sqrt_ii * s_ji, inv_sqrt_ii * s_ii);
-    // A cosine-distributed point of the unit disc lifted to the hemisphere.
-    let r = u[0].sqrt();
-    let phi = std::f32::consts::TAU * u[1];
-    let (a, b) = (r * phi.cos(), r * phi.sin());
-    let c = (1.0 - a * a - b * b).max(0.0).sqrt();
-    let m = (mk * a + mj * b + mi * c).normalize_or(Vec3::Z);
-    let n = (wk * m.x + wj * m.y + wi * m.z).normalize_or(v);
-    if n.is_finite() { n } else { v }
+    VisibleNormals::new(leaves, v).draw(u)
+}
+
+/// The visible normals of one leaf-normal distribution seen from one direction: the
+/// sampler's frame, worked out once for as many draws as a sample takes.
+pub struct VisibleNormals {
+    v: Vec3,
+    /// The view's orthonormal frame, `v` last.
+    frame: [Vec3; 3],
+    /// The distribution's axes in that frame.
+    m: [Vec3; 3],
+}
+
+impl VisibleNormals {
+    pub fn new(leaves: [f32; 6], v: Vec3) -> VisibleNormals {
+        let [xx, yy, zz, xy, xz, yz] = leaves;
+        let s = |a: Vec3, b: Vec3| {
+            a.x * b.x * (xx + EPSILON)
+                + a.y * b.y * (yy + EPSILON)
+                + a.z * b.z * (zz + EPSILON)
+                + (a.x * b.y + a.y * b.x) * xy
+                + (a.x * b.z + a.z * b.x) * xz
+                + (a.y * b.z + a.z * b.y) * yz
+        };
+        let wi = v;
+        let (wk, wj) = wi.any_orthonormal_pair();
+        let (s_kk, s_jj, s_ii) = (s(wk, wk), s(wj, wj), s(wi, wi));
+        let (s_kj, s_ki, s_ji) = (s(wk, wj), s(wk, wi), s(wj, wi));
+        let det = s_kk * s_jj * s_ii - s_kj * s_kj * s_ii - s_ki * s_ki * s_jj - s_ji * s_ji * s_kk
+            + 2.0 * s_kj * s_ki * s_ji;
+        let sqrt_det = det.abs().sqrt();
+        let inv_sqrt_ii = 1.0 / s_ii.max(f32::MIN_POSITIVE).sqrt();
+        let tmp = (s_jj * s_ii - s_ji * s_ji).max(f32::MIN_POSITIVE).sqrt();
+        let mk = Vec3::new(sqrt_det / tmp, 0.0, 0.0);
+        let mj = Vec3::new(
+            -inv_sqrt_ii * (s_ki * s_ji - s_kj * s_ii) / tmp,
+            inv_sqrt_ii * tmp,
+            0.0,
+        );
+        let mi = Vec3::new(inv_sqrt_ii * s_ki, inv_sqrt_ii * s_ji, inv_sqrt_ii * s_ii);
+        VisibleNormals {
+            v,
+            frame: [wk, wj, wi],
+            m: [mk, mj, mi],
+        }
+    }
+
+    /// [`DRAWS`] normals: the points of a rank-1 lattice shifted by the uniforms `u` (a
+    /// Cranley-Patterson rotation). Each point alone is uniform, so each normal is a draw of
+    /// the distribution and their mean is unbiased; together they cover the disc evenly,
+    /// where as many independent draws would clump.
+    pub fn lattice(&self, u: [f32; 2]) -> [Vec3; DRAWS] {
+        std::array::from_fn(|k| {
+            let k = k as f32;
+            // fract of a sum in [0, 2): in [0, 1), as a draw must be.
+            self.draw([
+                (u[0] + k / DRAWS as f32).fract(),
+                (u[1] + k * LATTICE_STEP).fract(),
+            ])
+        })
+    }
+
+    /// The normal the uniforms `u` draw.
+    pub fn draw(&self, u: [f32; 2]) -> Vec3 {
+        let ([wk, wj, wi], [mk, mj, mi]) = (self.frame, self.m);
+        // A cosine-distributed point of the unit disc lifted to the hemisphere.
+        let r = u[0].sqrt();
+        let phi = std::f32::consts::TAU * u[1];
+        let (a, b) = (r * phi.cos(), r * phi.sin());
+        let c = (1.0 - a * a - b * b).max(0.0).sqrt();
+        let m = (mk * a + mj * b + mi * c).normalize_or(Vec3::Z);
+        let n = (wk * m.x + wj * m.y + wi * m.z).normalize_or(self.v);
+        if n.is_finite() { n } else { self.v }
+    }
 }
 
 #[cfg(test)]
@@ -133,6 +183,39 @@ mod tests {
         // they are lit, from above dark.
         assert!(response(flat, Vec3::NEG_Y, Vec3::NEG_Y, 10_000) > 0.98);
         assert!(response(flat, Vec3::NEG_Y, Vec3::Y, 10_000) < 5e-3);
+    }
+
+    /// A shifted lattice's normals are each a draw of the distribution, so their mean over
+    /// the shifts is the response; and with the same shifts, the lattice's mean strays from
+    /// it far less than a single draw does (the noise it takes out of a lit leaf).
+    #[test]
+    fn a_shifted_lattice_keeps_the_response_and_steadies_it() {
+        let v = Vec3::new(0.3, 0.8, -0.52).normalize();
+        let l = Vec3::new(-0.5, 0.7, 0.2).normalize();
+        for leaves in [ISOTROPIC_LEAVES, [0.1, 0.8, 0.1, 0.0, 0.05, 0.0]] {
+            let want = response(leaves, v, l, 250_000);
+            let normals = VisibleNormals::new(leaves, v);
+            let (side, mut mean, mut spread_one, mut spread_lattice) = (100, 0.0, 0.0, 0.0);
+            for i in 0..side {
+                for j in 0..side {
+                    let u = [
+                        (i as f32 + 0.5) / side as f32,
+                        (j as f32 + 0.5) / side as f32,
+                    ];
+                    let lit = |n: Vec3| f64::from(n.dot(l).max(0.0));
+                    let lattice = normals.lattice(u);
+                    let m = lattice.iter().map(|&n| lit(n)).sum::<f64>() / DRAWS as f64;
+                    mean += m;
+                    spread_lattice += (m - want).powi(2);
+                    spread_one += (lit(normals.draw(u)) - want).powi(2);
+                }
+            }
+            let n = f64::from(side * side);
+            mean /= n;
+            assert!((mean - want).abs() < 1e-3, "{leaves:?}: {mean} vs {want}");
+            let ratio = spread_lattice / spread_one;
+            assert!(ratio < 0.1, "{leaves:?}: variance {ratio} of one draw's");
+        }
     }
 
     /// Vertical leaves (normals in the horizontal plane, every azimuth) lit from straight above

@@ -52,19 +52,38 @@ pub fn shade_ground(scene: &Scene, albedo: Vec3, normal: Vec3, light: f32) -> Ve
 /// light, 1/2, and there is no highlight.
 pub fn shade(scene: &Scene, albedo: Vec3, normal: Option<Vec3>, light: f32, to_eye: Vec3) -> Vec3 {
     let s = &scene.shading;
-    let l = scene.sun.direction;
     let direct = match normal {
-        Some(n) => {
-            let cos = n.dot(l).max(0.0);
-            let reflected = 2.0 * n.dot(l) * n - l;
-            let highlight = if cos > 0.0 {
-                reflected.dot(to_eye).max(0.0).powf(s.shininess)
-            } else {
-                0.0
-            };
-            s.kd * cos + s.ks * highlight
-        }
+        Some(n) => direct(scene, n, to_eye),
         None => 0.5 * s.kd,
     };
     albedo * (light * direct + s.ambient * s.kd)
+}
+
+/// [`shade`] for a cloud of leaves: its direct term the mean over the leaf `normals` drawn
+/// for the sample (`render::leaves`).
+pub fn shade_leaves(
+    scene: &Scene,
+    albedo: Vec3,
+    normals: &[Vec3],
+    light: f32,
+    to_eye: Vec3,
+) -> Vec3 {
+    let s = &scene.shading;
+    let sum: f32 = normals.iter().map(|&n| direct(scene, n, to_eye)).sum();
+    let direct = sum / normals.len() as f32;
+    albedo * (light * direct + s.ambient * s.kd)
+}
+
+/// The direct term of equation (3) for a unit normal `n`: kd cos theta + ks cos^n alpha.
+fn direct(scene: &Scene, n: Vec3, to_eye: Vec3) -> f32 {
+    let s = &scene.shading;
+    let l = scene.sun.direction;
+    let cos = n.dot(l).max(0.0);
+    let reflected = 2.0 * n.dot(l) * n - l;
+    let highlight = if cos > 0.0 {
+        reflected.dot(to_eye).max(0.0).powf(s.shininess)
+    } else {
+        0.0
+    };
+    s.kd * cos + s.ks * highlight
 }
