@@ -250,6 +250,16 @@ fn share(s: &str) -> Result<f32, String> {
     within(s, 0.0, 1.0, "a share of a pixel").map(|v| v as f32)
 }
 
+/// `--edge-spp`: 0 for none, else 2 to 65536 (one sample is what every pixel has).
+fn edge_spp(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(n) if n == 0 || (2..=65536).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "{s} is not a sample count from 2 to 65536, or 0 for none"
+        )),
+    }
+}
+
 fn lod_bias(s: &str) -> Result<f32, String> {
     within(s, -16.0, 16.0, "mip levels").map(|v| v as f32)
 }
@@ -508,8 +518,11 @@ pub struct RenderArgs {
     /// Samples per pixel for a pixel at an edge, more than --spp: after a first pass at --spp,
     /// each pixel that differs from a neighbour by more than --edge-contrast is rendered again
     /// at this count (silhouettes against the sky and the terrain, where one ray sees all or
-    /// none of what covers part of the pixel). Without it every pixel is rendered at --spp.
-    #[arg(long, value_name = "SPP", value_parser = clap::value_parser!(u32).range(2..=65536))]
+    /// none of what covers part of the pixel). 0: every pixel at --spp. Default: at --spp 1,
+    /// the texel and hybrid methods render the outline again at 4 (pixels whose alpha differs
+    /// from a neighbour's by more than a half: the terrain and the trees against the sky,
+    /// which no texture level smooths); otherwise none.
+    #[arg(long, value_name = "SPP", value_parser = edge_spp)]
     pub edge_spp: Option<u32>,
     /// The least difference to a neighbour that makes a pixel an edge (--edge-spp): in alpha,
     /// or in a colour channel compared as c / (1 + c).

@@ -176,7 +176,9 @@ fn a_crop_equals_its_region_of_the_full_frame_and_threads_do_not_matter() {
             "{mesh} + {texel} against {canopy}"
         );
         if !method.contains(&"hybrid") {
-            assert_eq!(mesh, 0.0);
+            // The default draws this view's trees from their textures, but for the outline's
+            // pixels, whose four samples' finer footprints draw a few of them from models.
+            assert!(mesh < 0.05 * canopy, "models {mesh} of {canopy}");
         } else {
             assert!(
                 mesh > 0.1 * canopy && texel > 0.1 * canopy,
@@ -776,10 +778,11 @@ fn cryptomatte_layers_cover_each_pixel_by_species_and_tree() {
 }
 
 /// `--edge-spp` renders again the pixels at edges (here the crowns and the mountain's ridge
-/// against the sky): against a 64-spp mesh render, alpha's error falls by a quarter or more,
-/// colour's does not rise, and the run says how many pixels it rendered again (measured:
-/// texel RGB 0.0078 -> 0.0056, alpha 0.034 -> 0.023; hybrid 0.0097 -> 0.0054, 0.038 ->
-/// 0.020). An edge count no larger than --spp is refused (exit 1, as for other flags that
+/// against the sky), and by default the texel and hybrid methods render the outline again:
+/// against a 64-spp mesh render and a render with neither (`--edge-spp 0`), alpha's error
+/// falls by a quarter or more, colour's does not rise, and the run says how many pixels it
+/// rendered again (measured: texel RGB 0.0078 -> 0.0056, alpha 0.034 -> 0.023; hybrid 0.0097
+/// -> 0.0054, 0.038 -> 0.020, stop 39, with --edge-spp 4). An edge count no larger than --spp is refused (exit 1, as for other flags that
 /// contradict each other), and a contrast without a count or a count below 2 (exit 2).
 #[test]
 fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
@@ -795,21 +798,33 @@ fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
     assert!(o.status.success(), "{}", stderr(&o));
     let error = |image: &str| rmse_against(d, image, "reference.exr");
     for method in ["texel", "hybrid"] {
-        let o = render("once.exr", &[method]);
+        let o = render("once.exr", &[method, "--edge-spp", "0"]);
         assert!(o.status.success(), "{}", stderr(&o));
-        let o = render("edges.exr", &[method, "--edge-spp", "4"]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        assert!(
-            stderr(&o).contains("pixels at edges rendered again at 4 spp"),
-            "{}",
-            stderr(&o)
-        );
-        let ([rgb, alpha], [rgb_edges, alpha_edges]) = (error("once.exr"), error("edges.exr"));
-        assert!(
-            alpha_edges < 0.75 * alpha,
-            "{method}: alpha {alpha} -> {alpha_edges}"
-        );
-        assert!(rgb_edges <= rgb, "{method}: rgb {rgb} -> {rgb_edges}");
+        assert!(!stderr(&o).contains("rendered again"), "{}", stderr(&o));
+        let [rgb, alpha] = error("once.exr");
+        // The default renders the outline again; --edge-spp with a contrast, colour's edges too.
+        for (flags, says) in [
+            (&[][..], "pixels at the outline rendered again at 4 spp"),
+            (
+                &["--edge-spp", "4"][..],
+                "pixels at edges rendered again at 4 spp",
+            ),
+        ] {
+            let mut a = vec![method];
+            a.extend_from_slice(flags);
+            let o = render("edges.exr", &a);
+            assert!(o.status.success(), "{}", stderr(&o));
+            assert!(stderr(&o).contains(says), "{}", stderr(&o));
+            let [rgb_edges, alpha_edges] = error("edges.exr");
+            assert!(
+                alpha_edges < 0.75 * alpha,
+                "{method} {flags:?}: alpha {alpha} -> {alpha_edges}"
+            );
+            assert!(
+                rgb_edges <= rgb,
+                "{method} {flags:?}: rgb {rgb} -> {rgb_edges}"
+            );
+        }
     }
     let o = render("refused.exr", &["texel", "--spp", "4", "--edge-spp", "4"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));

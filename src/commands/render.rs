@@ -46,11 +46,12 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         );
     }
     if let Some(edge_spp) = args.edge_spp
+        && edge_spp != 0
         && edge_spp <= args.spp
     {
         anyhow::bail!(
             "--edge-spp {edge_spp} would render edges again with no more samples than --spp {} \
-             gave them; give more, or leave it out",
+             gave them; give more, or 0 for none",
             args.spp
         );
     }
@@ -226,7 +227,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
                 String::new()
             };
             summary(
-                (args, method),
+                (args, method, settings.edges),
                 &scene,
                 &film,
                 &shot.exr,
@@ -335,7 +336,7 @@ fn plan(args: &RenderArgs, limits: &Limits, shots: &[Shot]) -> anyhow::Result<Ou
     let pixels = u64::from(args.width) * u64::from(args.height);
     limits.check_pixels(pixels, "--width x --height")?;
     // Edges sampled again: a mark per pixel, and the index of each one marked.
-    let per_pixel = aovs(args).bytes_per_pixel() + if args.edge_spp.is_some() { 5 } else { 0 };
+    let per_pixel = aovs(args).bytes_per_pixel() + if args.edge_spp == Some(0) { 0 } else { 5 };
     check_memory(
         pixels.saturating_mul(per_pixel),
         &format!("a {}x{} frame", args.width, args.height),
@@ -417,12 +418,13 @@ fn aovs(args: &RenderArgs) -> Aovs {
 }
 
 fn settings(args: &RenderArgs, method: MethodArg) -> RenderSettings {
+    let method = match method {
+        MethodArg::Texel => Method::Texel,
+        MethodArg::Mesh => Method::Mesh,
+        MethodArg::Hybrid => Method::Hybrid,
+    };
     RenderSettings {
-        method: match method {
-            MethodArg::Texel => Method::Texel,
-            MethodArg::Mesh => Method::Mesh,
-            MethodArg::Hybrid => Method::Hybrid,
-        },
+        method,
         spp: args.spp,
         jitter: args.jitter,
         march: March {
@@ -444,10 +446,15 @@ fn settings(args: &RenderArgs, method: MethodArg) -> RenderSettings {
         crop: args.crop,
         seed: args.seed,
         lod_seed: args.seed,
-        edges: args.edge_spp.map(|spp| render::Edges {
-            spp,
-            contrast: args.edge_contrast as f32,
-        }),
+        edges: match args.edge_spp {
+            Some(0) => None,
+            Some(spp) => Some(render::Edges {
+                spp,
+                contrast: args.edge_contrast as f32,
+                colour: true,
+            }),
+            None => render::Edges::default_for(method, args.spp),
+        },
         mattes: args.aov.contains(&AovArg::Cryptomatte),
         layers: aovs(args),
     }
@@ -507,7 +514,7 @@ fn write(
 
 /// The run's summary line for one shot.
 fn summary(
-    (args, method): (&RenderArgs, MethodArg),
+    (args, method, edges): (&RenderArgs, MethodArg, Option<render::Edges>),
     scene: &render::Scene,
     film: &Film,
     exr: &Path,
@@ -544,10 +551,12 @@ fn summary(
     } else {
         work
     };
-    let work = match args.edge_spp {
-        Some(spp) => format!(
-            "{work}, {} pixels at edges rendered again at {spp} spp",
-            film.sampled_again
+    let work = match edges {
+        Some(e) => format!(
+            "{work}, {} pixels at {} rendered again at {} spp",
+            film.sampled_again,
+            if e.colour { "edges" } else { "the outline" },
+            e.spp
         ),
         None => work,
     };

@@ -112,6 +112,7 @@ fn a_frame_needs_the_models_only_where_it_draws_one() {
     let edges = Some(Edges {
         spp: 64,
         contrast: 0.05,
+        colour: true,
     });
     assert!(draws_models(
         &scene,

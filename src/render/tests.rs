@@ -967,6 +967,7 @@ fn the_image_is_the_same_for_any_thread_count_and_a_crop_equals_its_region() {
         Some(Edges {
             spp: 4,
             contrast: 0.05,
+            colour: true,
         }),
     ] {
         let settings = RenderSettings {
@@ -1021,6 +1022,7 @@ fn pixels_at_edges_are_rendered_again_at_the_edges_count() {
     let edges = Edges {
         spp: 9,
         contrast: 0.05,
+        colour: true,
     };
     let (first, more, both) = (at(1, None), at(9, None), at(1, Some(edges)));
     let width = first.width;
