@@ -76,6 +76,43 @@ fn bits(f: &Film) -> Vec<[u32; 4]> {
     f.rgba.iter().map(|p| p.map(f32::to_bits)).collect()
 }
 
+/// The switch is the one given up to 4 samples per pixel and grows with the square of the
+/// count over 4 beyond, the band unchanged: a lone tree whose samples' footprint keeps it a
+/// texture at 1 and 4 spp is drawn from its model at 8 and 16.
+#[test]
+fn past_four_samples_a_pixel_the_switch_grows() {
+    let lod = Lod {
+        switch: 1.5,
+        band: 0.5,
+    };
+    for spp in [1, 2, 4] {
+        assert_eq!(lod.for_samples(spp), lod);
+    }
+    assert_eq!(lod.for_samples(8).switch, 6.0);
+    assert_eq!(lod.for_samples(16).switch, 24.0);
+    assert_eq!(lod.for_samples(16).band, 0.5);
+
+    let target = DVec3::new(0.0, 1.0, 0.0);
+    let distance = 20.0;
+    let eye = DVec3::new(0.4, 1.3, 1.0).normalize() * distance + target;
+    let scene = lone_tree_scene(eye, HEAD_ON);
+    // Half a metre a pixel: four of the box's 1/8 m cells, two at 4 spp, 1.4 at 8.
+    let fov = (16.0f64 / 2.0 / distance).atan().to_degrees() * 2.0;
+    let camera = Camera::look_at(eye, target, fov, 32, 32).unwrap();
+    for (spp, models) in [(1, false), (4, false), (8, true), (16, true)] {
+        let settings = RenderSettings {
+            method: Method::Hybrid,
+            spp,
+            ..RenderSettings::default()
+        };
+        assert_eq!(
+            draws_models(&scene, &camera, &settings),
+            models,
+            "{spp} spp"
+        );
+    }
+}
+
 /// A frame needs the tree models only where it draws one: a hybrid frame whose samples'
 /// footprint makes the lone tree a texture does not, and renders without the model the same
 /// bits as with it; one whose footprint makes it a model does, as does the mesh method
@@ -216,6 +253,12 @@ fn in_the_band_each_frame_draws_a_tree_one_way_and_the_seeds_blend_them() {
     };
     let p = Draw::texel_probability(&scene, &lod, spread, 0);
     assert!((p - 0.3).abs() < 0.02, "{p}");
+    // The switch to give for it at this many samples (a power of two off: exact).
+    let given = Lod {
+        switch: lod.switch / 256.0,
+        ..lod
+    };
+    assert_eq!(given.for_samples(spp), lod);
     let pure = |method| {
         let f = image(&scene, &camera, method, lod, spp);
         (bits(&f), f)
@@ -230,7 +273,7 @@ fn in_the_band_each_frame_draws_a_tree_one_way_and_the_seeds_blend_them() {
             &RenderSettings {
                 method: Method::Hybrid,
                 spp,
-                lod,
+                lod: given,
                 lod_seed,
                 ..RenderSettings::default()
             },

@@ -39,6 +39,22 @@ impl Default for Lod {
     }
 }
 
+impl Lod {
+    /// The switch for a pass of `spp` samples per pixel: as given up to 4, and from there
+    /// times the square of spp / 4 (8 spp: 4 cells, 16: 16). With that many samples a pixel
+    /// resolves the models' leaves, and a texture read at the samples' finer footprint is
+    /// at its finest level, where its march costs most: in every view of `make report` the
+    /// models were faster at equal error at 8 and 16 spp (README, *The hybrid above 4
+    /// spp*), where at 4 the far view's textures still were.
+    pub fn for_samples(self, spp: u32) -> Lod {
+        let over = (spp as f32 / 4.0).max(1.0);
+        Lod {
+            switch: self.switch * over * over,
+            ..self
+        }
+    }
+}
+
 /// How one sample draws the trees.
 #[derive(Clone, Copy, Debug)]
 pub enum Draw {

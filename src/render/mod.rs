@@ -219,10 +219,11 @@ impl Sampling {
         }
     }
 
-    /// How the hybrid method's samples at this footprint draw the trees of `scene`, as
-    /// cheaply as it allows (`Draw::simplified`).
+    /// How the hybrid method's samples at this footprint and count per pixel draw the trees
+    /// of `scene` (`Lod::for_samples`), as cheaply as it allows (`Draw::simplified`).
     fn hybrid_draw(&self, scene: &Scene, settings: &RenderSettings) -> lod::Draw {
-        lod::Draw::hybrid(settings.lod, self.spread, lod_key(settings)).simplified(scene)
+        let lod = settings.lod.for_samples(self.spp);
+        lod::Draw::hybrid(lod, self.spread, lod_key(settings)).simplified(scene)
     }
 }
 
@@ -420,7 +421,7 @@ fn pixel(
                 spread,
                 (ray_key, lod_key(settings)),
                 &settings.march,
-                settings.lod,
+                settings.lod.for_samples(spp),
             ),
         };
         for c in 0..3 {
