@@ -24,6 +24,7 @@ pub struct Edges {
     /// in a colour channel compared as c / (1 + c), so that light up to about 1 counts by its
     /// value and brighter light by its ratio, whatever the sun's strength.
     pub contrast: f32,
+    /// Whether colour makes edges too (`--edge-contrast`), or alpha alone (the outline).
     pub colour: bool,
 }
 

@@ -483,36 +483,44 @@ fn every_tree_drawn_as_a_model_lies_within_the_model_horizon() {
 }
 
 /// A sample whose model horizon lies nearer than every tree is drawn as the texture method
-/// draws it (`Draw::simplified`), and only then: every tree's texture probability is one
-/// there. Both cases occur over footprints from fine to coarse, so the shortcut is neither
-/// never taken nor taken where a tree could still be a model.
+/// draws it (`Draw::simplified`), and one whose footprint is below every tree's band as the
+/// mesh method draws it, and only then: every tree's texture probability is one, or zero,
+/// there. All three cases occur over footprints from fine to coarse, so neither shortcut is
+/// never taken nor taken where a tree could still be drawn the other way.
 #[test]
-fn a_far_sample_is_drawn_from_textures_only_where_every_tree_is_one() {
+fn a_sample_is_drawn_by_a_pure_method_only_where_every_tree_is_drawn_so() {
     // A ring of trees 60 to 300 m from the eye, large and small; the first at the largest
     // scale, whose cells set the horizon.
     let mut trees = ring_of_trees(8, 200, 60.0..300.0);
     trees[0].scale = 3.3;
     let scene = boxed_forest(DVec3::new(0.0, 5.0, 0.0), &trees);
-    let (mut plain, mut hybrid) = (0, 0);
-    for spread in (0..60).map(|k| 1e-4f32 * 1.15f32.powi(k)) {
+    let (mut textures, mut models, mut hybrid) = (0, 0, 0);
+    for spread in (0..60).map(|k| 1e-5f32 * 1.15f32.powi(k)) {
         for lod in SETTINGS {
-            let draw = Draw::hybrid(lod, spread, 0).simplified(&scene);
-            assert!(
-                !matches!(draw, Draw::Mesh),
-                "a hybrid drawing became the mesh method's"
-            );
-            if matches!(draw, Draw::Hybrid { .. }) {
-                hybrid += 1;
-                continue;
-            }
-            plain += 1;
+            let every = match Draw::hybrid(lod, spread, 0).simplified(&scene) {
+                Draw::Hybrid { .. } => {
+                    hybrid += 1;
+                    continue;
+                }
+                Draw::Texel => {
+                    textures += 1;
+                    1.0
+                }
+                Draw::Mesh => {
+                    models += 1;
+                    0.0
+                }
+            };
             for i in 0..scene.instances.len() as u32 {
                 let p = Draw::texel_probability(&scene, &lod, spread, i);
-                assert_eq!(p, 1.0, "tree {i}, spread {spread}, {lod:?}");
+                assert_eq!(p, every, "tree {i}, spread {spread}, {lod:?}");
             }
         }
     }
-    assert!(plain > 10 && hybrid > 10, "{plain} plain, {hybrid} hybrid");
+    assert!(
+        textures > 10 && models > 10 && hybrid > 10,
+        "{textures} textures, {models} models, {hybrid} hybrid"
+    );
 }
 
 /// The frame's choices (`Scene::choose`) are the footprint rule's, tree by tree, in and out

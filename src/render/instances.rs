@@ -120,6 +120,10 @@ pub struct Instances {
     largest: (f32, f32),
     /// The distance from the eye (the frame's origin) to the nearest instance's box.
     nearest: f32,
+    /// The least angle any instance's finest cell subtends at the eye from its box's centre
+    /// (the cell over the centre's distance): a footprint below it is finer than every tree's
+    /// cells.
+    finest_angle: f32,
     bvh: Bvh,
 }
 
@@ -149,8 +153,17 @@ impl Instances {
             .iter()
             .map(|b| Vec3::ZERO.max(b.lo).min(b.hi).length())
             .fold(f32::INFINITY, f32::min);
+        let finest_angle = list
+            .iter()
+            .map(|i| {
+                let (centre, cell) = model_lod[i.model as usize];
+                let centre = i.position + i.dir_to_world(centre) * i.scale;
+                cell * i.scale / centre.length()
+            })
+            .fold(f32::INFINITY, f32::min);
         Instances {
             nearest,
+            finest_angle,
             bvh: Bvh::build(&boxes),
             list,
             model_boxes,
@@ -179,6 +192,12 @@ impl Instances {
     /// box; infinite where there are none.
     pub fn nearest_distance(&self) -> f32 {
         self.nearest
+    }
+
+    /// The least angle (radians) any instance's finest cell subtends at the eye, seen from
+    /// the centre of its box ([`Instances::centre_and_cell`]).
+    pub fn finest_angle(&self) -> f32 {
+        self.finest_angle
     }
 
     #[inline]

@@ -37,7 +37,8 @@ const EPSILON: f32 = 1e-3;
 pub const DRAWS: usize = 5;
 
 /// The second coordinate's step between the lattice's points: the Fibonacci lattice of
-/// [`DRAWS`] = 5 points, generator (1, 3), spreads them evenly over the unit square.
+/// [`DRAWS`] = 5 points, generator (1, 3), spreads them evenly over the unit square (another
+/// count needs its own generator: 8 points take (1, 5), 13 take (1, 8)).
 const LATTICE_STEP: f32 = 3.0 / DRAWS as f32;
 
 /// A leaf normal drawn from the visible normals of `leaves` (`[xx, yy, zz, xy, xz, yz]`) seen

@@ -103,7 +103,9 @@ impl Draw {
     /// The same drawing, as cheaply as `scene` allows: where every tree lies beyond the model
     /// horizon (a far view), each is drawn from its texture whatever the sample, and the plain
     /// texture drawing makes those choices without working them out tree by tree: the same
-    /// bytes, a few percent faster (README, *Measured*).
+    /// bytes, a few percent faster (README, *Measured*). Where the footprint is below every
+    /// tree's band (many samples a pixel), each is drawn from its model, as the mesh method
+    /// draws them.
     pub fn simplified(self, scene: &Scene) -> Draw {
         match self {
             Draw::Hybrid { .. }
@@ -111,6 +113,13 @@ impl Draw {
             {
                 Draw::Texel
             }
+            // A tree is a model where its centre's distance x spread is at most lo x its
+            // cell (`probability`); the margin covers rounding.
+            Draw::Hybrid {
+                spread,
+                ends: (lo, _),
+                ..
+            } if spread < lo * scene.instances.finest_angle() * 0.999 => Draw::Mesh,
             _ => self,
         }
     }
