@@ -656,6 +656,20 @@ pub struct TexelInfo {
     pub materials: Vec<MaterialPart>,
 }
 
+impl TexelInfo {
+    /// Where the texture records no model it was baked from (a procedural one, say), why
+    /// that stops `what`, for an error about its file: both a mesh render and an export need
+    /// the glTF.
+    pub fn no_source_model(&self, what: &str) -> Option<String> {
+        self.sources.is_empty().then(|| {
+            format!(
+                "records no source model (made by {:?}); {what} the glTF it was baked from",
+                self.generator
+            )
+        })
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texel {
     pub info: TexelInfo,

@@ -156,13 +156,10 @@ fn source_model(
         .map_err(|e| stale(forest, e, "re-run texel place"))?;
     let t = texel::decode_with(&bytes, limits)
         .map_err(|e| file_error(forest, Named(file.to_path_buf(), Box::new(e))))?;
-    if t.info.sources.is_empty() {
+    if let Some(message) = t.info.no_source_model("an export copies") {
         return Err(ExportError::Mismatch {
             file: file.to_path_buf(),
-            message: format!(
-                "records no source model (made by {:?}); an export copies the glTF it was baked from",
-                t.info.generator
-            ),
+            message,
         });
     }
     let dir = file.parent().unwrap_or(Path::new(""));

@@ -367,7 +367,10 @@ fn textures_composite_over_meshes_in_depth_order() {
         cutoff: 0.0,
         ..March::default()
     };
-    let ray = |scene: &Scene| integrate::hybrid(scene, Vec3::NEG_Z, spread, (9, 1), &march, lod);
+    let ray = |scene: &Scene| {
+        let draw = Draw::hybrid(lod, spread, 1).simplified(scene);
+        integrate::hybrid(scene, Vec3::NEG_Z, spread, 9, &march, draw)
+    };
     let front = at(3.0);
     assert!(draw.texel(&front, 0) && !draw.texel(&front, 1));
     let r = ray(&front);

@@ -36,7 +36,7 @@
 use glam::Vec3;
 
 use super::leaves::VisibleNormals;
-use super::lod::{Draw, Lod};
+use super::lod::Draw;
 use super::matte;
 use super::mesh::{self, TreeHit};
 use super::scene::Scene;
@@ -55,22 +55,17 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
     trace(scene, dir, spread, key, march, Draw::Texel)
 }
 
-/// [`radiance`] with each tree drawn as `lod` chooses for this sample: from its texture or
-/// from its polygon model (which needs [`Scene::with_meshes`]); `lod_key` keys the draws of
-/// the trees in the transition band.
+/// [`radiance`] with each tree drawn as `draw` says for this sample: from its texture or
+/// from its polygon model (which needs [`Scene::with_meshes`]).
 pub fn hybrid(
     scene: &Scene,
     dir: Vec3,
     spread: f32,
-    (key, lod_key): (u64, u64),
+    key: u64,
     march: &March,
-    lod: Lod,
+    draw: Draw,
 ) -> Radiance {
-    match Draw::hybrid(lod, spread, lod_key).simplified(scene) {
-        // Every tree a model: the mesh method's own path, the same light by less work.
-        Draw::Mesh => mesh::radiance(scene, dir, key),
-        draw => trace(scene, dir, spread, key, march, draw),
-    }
+    trace(scene, dir, spread, key, march, draw)
 }
 
 /// What ends a view ray behind the textures it crosses.

@@ -41,14 +41,9 @@ pub const DRAWS: usize = 5;
 /// count needs its own generator: 8 points take (1, 5), 13 take (1, 8)).
 const LATTICE_STEP: f32 = 3.0 / DRAWS as f32;
 
-/// A leaf normal drawn from the visible normals of `leaves` (`[xx, yy, zz, xy, xz, yz]`) seen
-/// from the unit direction `v`, by the uniforms `u`: on the side `v` is on (`n . v >= 0`).
-pub fn visible_normal(leaves: [f32; 6], v: Vec3, u: [f32; 2]) -> Vec3 {
-    VisibleNormals::new(leaves, v).draw(u)
-}
-
-/// The visible normals of one leaf-normal distribution seen from one direction: the
-/// sampler's frame, worked out once for as many draws as a sample takes.
+/// The visible normals of a leaf-normal distribution (`[xx, yy, zz, xy, xz, yz]`) seen from
+/// one unit direction `v`, on the side `v` is on (`n . v >= 0`): the sampler's frame, worked
+/// out once for as many draws as a sample takes.
 pub struct VisibleNormals {
     v: Vec3,
     /// The view's orthonormal frame, `v` last.
@@ -135,7 +130,7 @@ mod tests {
                     (i as f32 + 0.5) / side as f32,
                     (j as f32 + 0.5) / side as f32,
                 ];
-                let n = visible_normal(leaves, v, u);
+                let n = VisibleNormals::new(leaves, v).draw(u);
                 assert!(n.dot(v) >= -1e-4, "{n} not facing {v}");
                 sum += f64::from(n.dot(l).max(0.0));
             }

@@ -344,13 +344,10 @@ impl Models {
     ) -> Result<Models, LoadError> {
         let mut sources = Vec::with_capacity(texels.len());
         for (t, path) in texels.iter().zip(paths) {
-            if t.info.sources.is_empty() {
+            if let Some(message) = t.info.no_source_model("drawing its trees as meshes needs") {
                 return Err(LoadError::Mismatch {
                     file: path.clone(),
-                    message: format!(
-                        "records no source model (made by {:?}); drawing its trees as meshes needs the glTF it was baked from",
-                        t.info.generator
-                    ),
+                    message,
                 });
             }
             let source = ModelSource {

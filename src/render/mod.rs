@@ -29,6 +29,7 @@ use rayon::prelude::*;
 pub use camera::Camera;
 pub use edges::Edges;
 pub use film::{Aovs, Film};
+use lod::Draw;
 pub use lod::Lod;
 pub use matte::MatteNames;
 pub use scene::{Ground, Lighting, Look, Placed, Scene, Shading, Sun};
@@ -120,16 +121,14 @@ impl Default for RenderSettings {
 /// tree within the frame's reach to be a model ([`lod::Draw::simplified`]); the texel method
 /// never. A hybrid frame of a far forest then reads no model at all.
 pub fn draws_models(scene: &Scene, camera: &Camera, settings: &RenderSettings) -> bool {
-    match settings.method {
-        Method::Texel => false,
-        Method::Mesh => true,
-        Method::Hybrid => std::iter::once(settings.spp)
-            .chain(settings.edges.map(|e| e.spp))
-            .any(|spp| {
-                let draw = Sampling::new(camera, spp).hybrid_draw(scene, settings);
-                !matches!(draw, lod::Draw::Texel)
-            }),
-    }
+    std::iter::once(settings.spp)
+        .chain(settings.edges.map(|e| e.spp))
+        .any(|spp| {
+            !matches!(
+                Sampling::new(camera, spp, scene, settings).draw,
+                Draw::Texel
+            )
+        })
 }
 
 /// Renders `scene` through `camera`; `progress` is told each finished tile's pixel count.
@@ -161,10 +160,8 @@ pub fn render(
         scene.meshes.len() == scene.texels.len() || !draws_models(scene, camera, settings),
         "this frame draws trees from their models: the scene needs them (Scene::with_meshes)"
     );
-    let base = Sampling::new(camera, settings.spp);
-    if settings.method == Method::Hybrid {
-        scene.choose(&base.hybrid_draw(scene, settings));
-    }
+    let base = Sampling::new(camera, settings.spp, scene, settings);
+    scene.choose(&base.draw);
     // Each tile's pixels go into the film as soon as the tile is done, under a lock held for
     // the copy alone: the film is the run's one image-sized allocation (pixels gathered
     // frame-wide before the copy were another as large, 160 MB at 1920 x 1080, and the copy
@@ -198,32 +195,40 @@ pub fn render(
     film
 }
 
-/// How the samples of a pixel are laid: their count, their strata, and each one's footprint
-/// per metre of distance.
+/// How the samples of a pixel are laid: their count, their strata, each one's footprint per
+/// metre of distance, and how they draw the trees.
 struct Sampling {
     spp: u32,
     strata: Strata,
     spread: f32,
+    draw: Draw,
 }
 
 impl Sampling {
-    fn new(camera: &Camera, spp: u32) -> Sampling {
+    /// A pass of `spp` samples a pixel, drawing `scene`'s trees as `settings.method` does:
+    /// the hybrid's choice at this footprint and count (`Lod::for_samples`), as cheaply as
+    /// it allows (`Draw::simplified`: every tree a texture, or every tree a model, where
+    /// that is what the choice comes to).
+    fn new(camera: &Camera, spp: u32, scene: &Scene, settings: &RenderSettings) -> Sampling {
+        // Each sample stands for its stratum of the pixel, not the whole pixel: its
+        // footprint, which picks the mip level, is the stratum's (the side of a square of its
+        // area). More samples then read finer levels, and the image converges to the finest
+        // level's, not to the pixel-sized level's bias.
+        let spread = camera.pixel_angle() as f32 / (spp as f32).sqrt();
+        let draw = match settings.method {
+            Method::Texel => Draw::Texel,
+            Method::Mesh => Draw::Mesh,
+            Method::Hybrid => {
+                let lod = settings.lod.for_samples(spp);
+                Draw::hybrid(lod, spread, lod_key(settings)).simplified(scene)
+            }
+        };
         Sampling {
             spp,
             strata: Strata::new(spp),
-            // Each sample stands for its stratum of the pixel, not the whole pixel: its
-            // footprint, which picks the mip level, is the stratum's (the side of a square of
-            // its area). More samples then read finer levels, and the image converges to the
-            // finest level's, not to the pixel-sized level's bias.
-            spread: camera.pixel_angle() as f32 / (spp as f32).sqrt(),
+            spread,
+            draw,
         }
-    }
-
-    /// How the hybrid method's samples at this footprint and count per pixel draw the trees
-    /// of `scene` (`Lod::for_samples`), as cheaply as it allows (`Draw::simplified`).
-    fn hybrid_draw(&self, scene: &Scene, settings: &RenderSettings) -> lod::Draw {
-        let lod = settings.lod.for_samples(self.spp);
-        lod::Draw::hybrid(lod, self.spread, lod_key(settings)).simplified(scene)
     }
 }
 
@@ -262,7 +267,7 @@ fn sample_edges(
     let mut places = Vec::with_capacity(at_edges.iter().filter(|&&m| m).count());
     places.extend((0..at_edges.len() as u32).filter(|&i| at_edges[i as usize]));
     drop(at_edges);
-    let more = Sampling::new(camera, edges.spp);
+    let more = Sampling::new(camera, edges.spp, scene, settings);
     let shared = std::sync::Mutex::new(film);
     places.par_chunks(64).for_each(|chunk| {
         let width = region[2] - region[0];
@@ -396,6 +401,7 @@ fn pixel(
         spp,
         ref strata,
         spread,
+        draw,
     } = *sampling;
     let pixel_key = rng::hash3(
         settings.seed,
@@ -412,17 +418,13 @@ fn pixel(
         let (u, v) = strata.place(s, settings.jitter.then_some(key));
         let dir = camera.direction(x as f64 + u, y as f64 + v);
         let ray_key = rng::mix64(key ^ rng::purpose::RAY);
-        let r = match settings.method {
-            Method::Texel => integrate::radiance(scene, dir, spread, ray_key, &settings.march),
-            Method::Mesh => mesh::radiance(scene, dir, ray_key),
-            Method::Hybrid => integrate::hybrid(
-                scene,
-                dir,
-                spread,
-                (ray_key, lod_key(settings)),
-                &settings.march,
-                settings.lod.for_samples(spp),
-            ),
+        let r = match draw {
+            Draw::Texel => integrate::radiance(scene, dir, spread, ray_key, &settings.march),
+            // Every tree a model, in the hybrid method too: the same light, less work.
+            Draw::Mesh => mesh::radiance(scene, dir, ray_key),
+            Draw::Hybrid { .. } => {
+                integrate::hybrid(scene, dir, spread, ray_key, &settings.march, draw)
+            }
         };
         for c in 0..3 {
             rgba[c] += r.rgb[c];

@@ -51,12 +51,11 @@ pub fn shade_ground(scene: &Scene, albedo: Vec3, normal: Vec3, light: f32) -> Ve
 /// density gradient) the cosine is replaced by its mean over the hemisphere facing the
 /// light, 1/2, and there is no highlight.
 pub fn shade(scene: &Scene, albedo: Vec3, normal: Option<Vec3>, light: f32, to_eye: Vec3) -> Vec3 {
-    let s = &scene.shading;
     let direct = match normal {
         Some(n) => direct(scene, n, to_eye),
-        None => 0.5 * s.kd,
+        None => 0.5 * scene.shading.kd,
     };
-    albedo * (light * direct + s.ambient * s.kd)
+    lit(scene, albedo, light, direct)
 }
 
 /// [`shade`] for a cloud of leaves: its direct term the mean over the leaf `normals` drawn
@@ -68,9 +67,13 @@ pub fn shade_leaves(
     light: f32,
     to_eye: Vec3,
 ) -> Vec3 {
-    let s = &scene.shading;
     let sum: f32 = normals.iter().map(|&n| direct(scene, n, to_eye)).sum();
-    let direct = sum / normals.len() as f32;
+    lit(scene, albedo, light, sum / normals.len() as f32)
+}
+
+/// Equation (3) from its direct term: albedo (I direct + Ia kd).
+fn lit(scene: &Scene, albedo: Vec3, light: f32, direct: f32) -> Vec3 {
+    let s = &scene.shading;
     albedo * (light * direct + s.ambient * s.kd)
 }
 
