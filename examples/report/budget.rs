@@ -10,7 +10,14 @@
 //!   M_unshadowed)`: self-shadowing inside crowns, shadow mip levels, shadows on the ground;
 //! - **noise**: the spread over seeds, `rms(T_seed0 - T_seed1) / sqrt 2`.
 //!
-//! Beside them, the total again with exact shadow rays (`--shadows exact`, a jittered march
+//! Beside them, what one sample per pixel makes of it (the speed-against-error curves' first
+//! point): the total of a 1-spp render (the default settings, its outline rendered again),
+//! and the total at 16 spp reading the levels a 1-spp render reads (`--lod-bias 2`: each
+//! sample's level matched to the whole pixel's footprint, not its sixteenth's), which is what
+//! that render would be with its noise and aliasing gone, and so bounds what any change to
+//! its sampling could gain.
+//!
+//! Also the total again with exact shadow rays (`--shadows exact`, a jittered march
 //! per tree, where the default reads the sun-depth cache): what the cache adds to the error,
 //! or takes from it (it has no noise of its own, nor the brightening exp(-depth) takes from a
 //! noisy depth).
@@ -40,6 +47,10 @@ pub struct Budget {
     pub total: f64,
     /// The total with exact shadow rays.
     pub total_exact_shadows: f64,
+    /// The total of a 1-spp render.
+    pub one_spp: f64,
+    /// The total at [`BUDGET_SPP`] with the levels a 1-spp render reads.
+    pub one_spp_levels: f64,
     pub coverage: f64,
     pub shading: f64,
     pub shadows: f64,
@@ -91,6 +102,15 @@ impl Report {
         let t_seed = texel("seed1", &["--seed", "1"]);
         let t_unshadowed = texel("unshadowed", &["--no-shadows"]);
         let t_exact = texel("exact-shadows", &["--shadows", "exact"]);
+        let t_one = self.work.join(out("1spp"));
+        self.render(
+            forest,
+            view,
+            &["--method", "texel", "--aov", "canopy"],
+            &out("1spp"),
+        );
+        // Sixteen samples' footprints are a quarter of the pixel's across: two levels up.
+        let t_one_levels = texel("1spp-levels", &["--lod-bias", "2"]);
         let (m, mn) = (read(&reference), read(&unshadowed_reference));
         let (tf, ts, tn) = (read(&t), read(&t_seed), read(&t_unshadowed));
         let n = m.pixels.len();
@@ -105,6 +125,8 @@ impl Report {
             view: view.name,
             total: compare(&tf, &m, |_| true).rgb.rmse,
             total_exact_shadows: compare(&read(&t_exact), &m, |_| true).rgb.rmse,
+            one_spp: compare(&read(&t_one), &m, |_| true).rgb.rmse,
+            one_spp_levels: compare(&read(&t_one_levels), &m, |_| true).rgb.rmse,
             coverage: (canopy_t
                 .iter()
                 .zip(&canopy_m)
@@ -149,19 +171,21 @@ pub fn write(dir: &Path, budgets: &[Budget]) -> String {
          coverage is in alpha, the rest in radiance. Ratios: texel over mesh mean radiance on \
          tree pixels (reference canopy above one half, decided in blocks of 4 x 4 pixels). \
          The total with exact shadow rays (`--shadows exact`) in place of the sun-depth cache, \
-         and what the cache changes, are the last two columns.\n\n\
-         | view | total | coverage (alpha) | canopy ratio | shading, unshadowed | shadows | noise | ratio R / G / B on trees | total, exact shadows | cache's change |\n\
-         |---|---:|---:|---:|---:|---:|---:|---|---:|---:|\n"
+         and what the cache changes, come next; last, the total of a 1-spp render, and at \
+         {BUDGET_SPP} spp with the levels a 1-spp render reads (`--lod-bias 2`): that render \
+         with its noise and aliasing gone.\n\n\
+         | view | total | coverage (alpha) | canopy ratio | shading, unshadowed | shadows | noise | ratio R / G / B on trees | total, exact shadows | cache's change | 1 spp | 1 spp's levels, {BUDGET_SPP} spp |\n\
+         |---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|\n"
     );
     let mut csv = String::from(
-        "view,total,coverage,canopy_ratio,shading,shadows,noise,ratio_r,ratio_g,ratio_b,tree_pixels,total_exact_shadows\n",
+        "view,total,coverage,canopy_ratio,shading,shadows,noise,ratio_r,ratio_g,ratio_b,tree_pixels,total_exact_shadows,one_spp,one_spp_levels\n",
     );
     let ratio = |r: Option<f64>| r.map_or("-".to_string(), |r| format!("{r:.3}"));
     for b in budgets {
         let p = parts(b);
         writeln!(
             md,
-            "| {} | {:.5} | {:.5} | {:.3} | {:.5} | {:.5} | {:.5} | {} / {} / {} | {:.5} | {:+.1}% |",
+            "| {} | {:.5} | {:.5} | {:.3} | {:.5} | {:.5} | {:.5} | {} / {} / {} | {:.5} | {:+.1}% | {:.5} | {:.5} |",
             b.view,
             p[0].1,
             p[1].1,
@@ -173,12 +197,14 @@ pub fn write(dir: &Path, budgets: &[Budget]) -> String {
             ratio(b.ratio[1]),
             ratio(b.ratio[2]),
             b.total_exact_shadows,
-            100.0 * (b.total / b.total_exact_shadows - 1.0)
+            100.0 * (b.total / b.total_exact_shadows - 1.0),
+            b.one_spp,
+            b.one_spp_levels
         )
         .unwrap();
         writeln!(
             csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             b.view,
             p[0].1,
             p[1].1,
@@ -190,7 +216,9 @@ pub fn write(dir: &Path, budgets: &[Budget]) -> String {
             ratio(b.ratio[1]),
             ratio(b.ratio[2]),
             b.tree_pixels,
-            b.total_exact_shadows
+            b.total_exact_shadows,
+            b.one_spp,
+            b.one_spp_levels
         )
         .unwrap();
     }

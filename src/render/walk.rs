@@ -23,7 +23,8 @@ pub struct March {
     pub step: f32,
     /// Transmittance below which a ray stops (the paper's cut-off).
     pub cutoff: f32,
-    /// Added to the mip level the footprint asks for (negative: sharper, slower).
+    /// Added to the mip level the footprint asks for, as a footprint 2^lod_bias times as wide
+    /// asks (negative: sharper, slower).
     pub lod_bias: f32,
     /// Extra mip levels for shadow rays. 0 (the level the view ray reads) is the default:
     /// nearer the reference than 1 in every view of `make report`, and no slower (README,
@@ -77,12 +78,20 @@ pub(super) fn level_for(scene: &Scene, i: u32, footprint: f32, lod_bias: f32) ->
 }
 
 /// The level of `levels` whose cells match a footprint of `cells` finest cells, moved by
-/// `lod_bias` levels: the whole part of log2(cells) + lod_bias.
+/// `lod_bias` levels, as a footprint 2^lod_bias times as wide: the whole part of
+/// log2(cells) + lod_bias, clamped to the levels there are. So a bias of 2 at 16 spp reads
+/// what one sample per pixel reads, for trees nearer than a finest cell a pixel too (adding 2
+/// to the level a footprint below a cell is clamped to would read them coarser).
 fn level_of(cells: f32, lod_bias: f32, levels: usize) -> usize {
-    let cells = cells.max(1.0);
-    // With a whole bias (the defaults) only log2's whole part counts, and for a float of at
-    // least 1 that is its exponent: a shadow ray asks for a level for every tree it passes,
-    // and this function with its logarithm was a twentieth of a far frame.
+    if !(cells > 0.0) {
+        // No footprint (the eye at the tree) reads the finest; none at all, the bias's own.
+        let own = if cells.is_nan() { lod_bias } else { 0.0 };
+        return (own.max(0.0) as usize).min(levels - 1);
+    }
+    // With a whole bias (the defaults) only log2's whole part counts, and for a positive
+    // normal float that is its exponent (a subnormal's reads -127, far below any level): a
+    // shadow ray asks for a level for every tree it passes, and this function with its
+    // logarithm was a twentieth of a far frame.
     let log2 = if floor(lod_bias) == lod_bias {
         ((cells.to_bits() >> 23) as i32 - 127) as f32
     } else {
@@ -333,13 +342,14 @@ mod tests {
     }
 
     /// The level is the whole part of log2(cells) + bias, clamped to the levels there are, as
-    /// f64 works it out, for whole biases (read from the exponent) and others (a logarithm);
-    /// footprints below a cell, not a number or infinite read the finest and the coarsest.
+    /// f64 works it out, for whole biases (read from the exponent) and others (a logarithm),
+    /// footprints below a finest cell included; no footprint, not a number or infinite read
+    /// the finest, the bias's own and the coarsest.
     #[test]
     fn a_footprint_reads_the_level_whose_cells_match_it() {
         let mut s = Stream::new(3, 0);
         for _ in 0..20000 {
-            let cells = (s.unit() * 24.0).exp2() as f32;
+            let cells = (s.unit() * 30.0 - 6.0).exp2() as f32;
             for bias in [-2.0f32, -1.0, 0.0, 1.0, 3.0, -0.5, 0.25, 1.75] {
                 let want = (f64::from(cells).log2() + f64::from(bias))
                     .floor()
@@ -357,6 +367,11 @@ mod tests {
             assert_eq!(level_of(cells.next_down(), 0.0, 30), k.saturating_sub(1));
         }
         assert_eq!(level_of(0.3, 0.0, 5), 0);
+        // A sixteenth of a pixel's footprint two levels up reads what the pixel's does.
+        assert_eq!(level_of(0.3, 2.0, 5), level_of(1.2, 0.0, 5));
+        assert_eq!(level_of(0.5, 2.0, 5), 1);
+        assert_eq!(level_of(0.0, 2.0, 5), 0);
+        assert_eq!(level_of(-0.0, 2.0, 5), 0);
         assert_eq!(level_of(f32::NAN, 1.0, 5), 1);
         assert_eq!(level_of(f32::INFINITY, 0.0, 5), 4);
     }
