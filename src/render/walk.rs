@@ -83,10 +83,13 @@ pub(super) fn level_for(scene: &Scene, i: u32, footprint: f32, lod_bias: f32) ->
 /// what one sample per pixel reads, for trees nearer than a finest cell a pixel too (adding 2
 /// to the level a footprint below a cell is clamped to would read them coarser).
 fn level_of(cells: f32, lod_bias: f32, levels: usize) -> usize {
-    if !(cells > 0.0) {
-        // No footprint (the eye at the tree) reads the finest; none at all, the bias's own.
-        let own = if cells.is_nan() { lod_bias } else { 0.0 };
-        return (own.max(0.0) as usize).min(levels - 1);
+    if cells.is_nan() {
+        // No footprint at all: the bias's own level.
+        return (lod_bias.max(0.0) as usize).min(levels - 1);
+    }
+    if cells <= 0.0 {
+        // No footprint (the eye at the tree's centre): the finest.
+        return 0;
     }
     // With a whole bias (the defaults) only log2's whole part counts, and for a positive
     // normal float that is its exponent (a subnormal's reads -127, far below any level): a
