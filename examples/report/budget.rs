@@ -93,24 +93,20 @@ impl Report {
         let spp = BUDGET_SPP.to_string();
         let out = |tag: &str| format!("budget-{}-{tag}.exr", view.name);
         let texel = |tag: &str, extra: &[&str]| {
-            let mut flags = vec!["--method", "texel", "--spp", &spp, "--aov", "canopy"];
+            let mut flags = vec!["--method", "texel", "--aov", "canopy"];
             flags.extend_from_slice(extra);
             self.render(forest, view, &flags, &out(tag));
             self.work.join(out(tag))
         };
-        let t = texel("full", &[]);
-        let t_seed = texel("seed1", &["--seed", "1"]);
-        let t_unshadowed = texel("unshadowed", &["--no-shadows"]);
-        let t_exact = texel("exact-shadows", &["--shadows", "exact"]);
-        let t_one = self.work.join(out("1spp"));
-        self.render(
-            forest,
-            view,
-            &["--method", "texel", "--aov", "canopy"],
-            &out("1spp"),
-        );
+        let texel_budget =
+            |tag: &str, extra: &[&str]| texel(tag, &[&["--spp", spp.as_str()], extra].concat());
+        let t = texel_budget("full", &[]);
+        let t_seed = texel_budget("seed1", &["--seed", "1"]);
+        let t_unshadowed = texel_budget("unshadowed", &["--no-shadows"]);
+        let t_exact = texel_budget("exact-shadows", &["--shadows", "exact"]);
+        let t_one = texel("1spp", &[]);
         // Sixteen samples' footprints are a quarter of the pixel's across: two levels up.
-        let t_one_levels = texel("1spp-levels", &["--lod-bias", "2"]);
+        let t_one_levels = texel_budget("1spp-levels", &["--lod-bias", "2"]);
         let (m, mn) = (read(&reference), read(&unshadowed_reference));
         let (tf, ts, tn) = (read(&t), read(&t_seed), read(&t_unshadowed));
         let n = m.pixels.len();

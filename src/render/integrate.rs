@@ -56,7 +56,8 @@ pub fn radiance(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March) 
 }
 
 /// [`radiance`] with each tree drawn as `draw` says for this sample: from its texture or
-/// from its polygon model (which needs [`Scene::with_meshes`]).
+/// from its polygon model (which needs [`Scene::with_meshes`]); every tree a texture with
+/// [`Draw::Texel`], as [`radiance`] draws them.
 pub fn hybrid(
     scene: &Scene,
     dir: Vec3,

@@ -419,10 +419,9 @@ fn pixel(
         let dir = camera.direction(x as f64 + u, y as f64 + v);
         let ray_key = rng::mix64(key ^ rng::purpose::RAY);
         let r = match draw {
-            Draw::Texel => integrate::radiance(scene, dir, spread, ray_key, &settings.march),
             // Every tree a model, in the hybrid method too: the same light, less work.
             Draw::Mesh => mesh::radiance(scene, dir, ray_key),
-            Draw::Hybrid { .. } => {
+            Draw::Texel | Draw::Hybrid { .. } => {
                 integrate::hybrid(scene, dir, spread, ray_key, &settings.march, draw)
             }
         };

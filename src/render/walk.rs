@@ -83,19 +83,16 @@ pub(super) fn level_for(scene: &Scene, i: u32, footprint: f32, lod_bias: f32) ->
 /// what one sample per pixel reads, for trees nearer than a finest cell a pixel too (adding 2
 /// to the level a footprint below a cell is clamped to would read them coarser).
 fn level_of(cells: f32, lod_bias: f32, levels: usize) -> usize {
-    if cells.is_nan() {
-        // No footprint at all: the bias's own level.
-        return (lod_bias.max(0.0) as usize).min(levels - 1);
-    }
-    if cells <= 0.0 {
-        // No footprint (the eye at the tree's centre): the finest.
-        return 0;
-    }
-    // With a whole bias (the defaults) only log2's whole part counts, and for a positive
-    // normal float that is its exponent (a subnormal's reads -127, far below any level): a
-    // shadow ray asks for a level for every tree it passes, and this function with its
-    // logarithm was a twentieth of a far frame.
-    let log2 = if floor(lod_bias) == lod_bias {
+    // No footprint at all reads as one cell (the bias's own level); none, with the eye at
+    // the tree's centre, as the finest. With a whole bias (the defaults) only log2's whole
+    // part counts, and for a positive normal float that is its exponent (a subnormal's reads
+    // -127, far below any level): a shadow ray asks for a level for every tree it passes, and
+    // this function with its logarithm was a twentieth of a far frame.
+    let log2 = if cells.is_nan() {
+        0.0
+    } else if cells <= 0.0 {
+        f32::NEG_INFINITY
+    } else if floor(lod_bias) == lod_bias {
         ((cells.to_bits() >> 23) as i32 - 127) as f32
     } else {
         cells.log2()
