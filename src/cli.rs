@@ -760,8 +760,8 @@ impl AxisArg {
 
 #[derive(Args, Debug)]
 pub struct InspectArgs {
-    /// The file to describe: a .texel, a .instances, or a terrain (.glb, .gltf or a heightmap
-    /// image).
+    /// The file to describe: a .texel, a .instances, a terrain (.glb, .gltf or a heightmap
+    /// image), or a frame `texel render` wrote (.exr).
     pub file: PathBuf,
     /// Terrain: how a heightmap becomes metres.
     #[command(flatten)]

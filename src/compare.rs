@@ -171,6 +171,13 @@ impl ExrLayer {
         })
     }
 
+    /// The layer as the file holds it: its channels and attributes.
+    pub(crate) fn layer(
+        &self,
+    ) -> &exr::image::Layer<exr::image::AnyChannels<exr::image::FlatSamples>> {
+        &self.layer
+    }
+
     /// The `worldToCamera` and `worldToNDC` attributes, where the file has them.
     pub(crate) fn camera_matrices(&self) -> (Option<[f32; 16]>, Option<[f32; 16]>) {
         let a = &self.layer.attributes;

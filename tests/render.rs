@@ -839,3 +839,85 @@ fn pixels_at_edges_sampled_again_soften_the_silhouettes() {
         assert!(stderr(&o).contains("--edge-spp"), "{}", stderr(&o));
     }
 }
+
+/// `texel inspect FRAME.exr` on a frame `texel render` wrote: its pixels within the frame, the
+/// camera it was seen from (read back from `worldToCamera`), and every channel's range, with
+/// Cryptomatte's id channels told apart and no NaN anywhere; a picture asked of it is refused.
+#[test]
+fn inspect_summarises_a_rendered_frame() {
+    let dir = small_forest();
+    let o = render(
+        dir.path(),
+        &[
+            "-o",
+            "crop.exr",
+            "--crop",
+            "8,4,40,30",
+            "--aov",
+            "cryptomatte,normal",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["inspect", "crop.exr"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("OpenEXR frame (written by texel-forest")
+            && text.contains("pixels        32 x 26 at (8, 4) of the frame 64 x 36 at (0, 0)")
+            && text.contains("(Cryptomatte ids)"),
+        "{text}"
+    );
+    let o = run(&["inspect", "crop.exr", "--json"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let eye: Vec<f64> = (0..3)
+        .map(|k| json["camera"]["eye"][k].as_f64().unwrap())
+        .collect();
+    let forward: Vec<f64> = (0..3)
+        .map(|k| json["camera"]["forward"][k].as_f64().unwrap())
+        .collect();
+    let (e, target) = ([-150.0, 450.0, 260.0], [0.0, 300.0, 0.0]);
+    let to: Vec<f64> = (0..3).map(|k| target[k] - e[k]).collect();
+    let length = to.iter().map(|x| x * x).sum::<f64>().sqrt();
+    for k in 0..3 {
+        assert!((eye[k] - e[k]).abs() < 1e-2, "eye {eye:?}");
+        assert!(
+            (forward[k] - to[k] / length).abs() < 1e-4,
+            "forward {forward:?}"
+        );
+    }
+    let channels = json["channels"].as_array().unwrap();
+    let find = |name: &str| {
+        channels
+            .iter()
+            .find(|c| c["name"] == name)
+            .unwrap_or_else(|| panic!("no channel {name} in {channels:?}"))
+    };
+    for name in ["R", "G", "B", "A", "Z", "N.X", "CryptoSpecies00.G"] {
+        let c = find(name);
+        assert_eq!(c["ids"], false, "{c}");
+        assert!(
+            c["min"].as_f64().unwrap() <= c["max"].as_f64().unwrap(),
+            "{c}"
+        );
+    }
+    let alpha = find("A");
+    assert!(alpha["min"].as_f64().unwrap() >= 0.0 && alpha["max"].as_f64().unwrap() <= 1.0);
+    assert_eq!(find("CryptoSpecies00.R")["ids"], true);
+    assert_eq!(find("CryptoInstance00.B")["ids"], true);
+    assert!(channels.iter().all(|c| c["nan"] == 0), "{channels:?}");
+    assert!(
+        json["attributes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|kv| kv[1] == "CryptoSpecies"),
+        "{json}"
+    );
+    let o = run(
+        &["inspect", "crop.exr", "--map", "-o", "map.png"],
+        dir.path(),
+    );
+    assert_error(&o, &["crop.exr", "frame", "--map"]);
+    assert!(!dir.path().join("map.png").exists());
+}

@@ -8,7 +8,8 @@ use texel_forest::formats::{container, instances, texel};
 use texel_forest::input::{self, MAX_GLTF};
 use texel_forest::inspect::{FileFacts, Kind};
 use texel_forest::inspect::{
-    instances as forest_view, pictures, terrain as terrain_view, texel as summary,
+    frame as frame_view, instances as forest_view, pictures, terrain as terrain_view,
+    texel as summary,
 };
 use texel_forest::limits::Limits;
 use texel_forest::output::{OutputId, Outputs};
@@ -59,6 +60,32 @@ fn write_png(mut outputs: Outputs, id: OutputId, image: &image::RgbImage) -> any
     Ok(outputs.commit()?)
 }
 
+/// The first bytes of every OpenEXR file.
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
+/// A frame `texel render` wrote: its summary (it has no picture but itself).
+fn run_frame(args: &InspectArgs, limits: &Limits, picture: Option<OutputId>) -> anyhow::Result<()> {
+    let file = &args.file;
+    if args.slice.is_some() || args.projection.is_some() || args.map || picture.is_some() {
+        bail!(
+            "{} is a frame texel render wrote: it is its own picture (--slice, --projection and --map draw other files)",
+            file.display()
+        );
+    }
+    if args.species.is_some()
+        || args.cell.is_some()
+        || args.region.is_some()
+        || args.sea_level.is_some()
+    {
+        bail!(
+            "{} is a frame texel render wrote: --species, --cell, --region and --sea-level judge terrains",
+            file.display()
+        );
+    }
+    let summary = frame_view::summarize(file, limits)?;
+    print_summary(&summary, args.json, frame_view::to_text)
+}
+
 /// What a file is: by its magic, else by its name.
 pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
     let file = &args.file;
@@ -70,10 +97,20 @@ pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
         .transpose()?;
     let head = input::read_framed(file, 16, |_| None)?;
     match Kind::of(&head, file.extension())
-        .with_context(|| format!("{}: not a .texel, .instances or glTF terrain file, nor a heightmap image (its first bytes match none of them)", file.display()))?
+        .with_context(|| format!("{}: not a .texel, .instances or glTF terrain file, nor a heightmap image or a rendered frame (its first bytes match none of them)", file.display()))?
     {
         Kind::Texel => run_texel(args, limits, outputs, picture),
         Kind::Instances => run_instances(args, limits, outputs, picture),
+        // An OpenEXR is a heightmap unless `texel render` wrote it (and no heightmap flag
+        // says to read it as one).
+        Kind::Terrain
+            if head.starts_with(&EXR_MAGIC)
+                && args.heightmap.terrain_size.is_none()
+                && args.heightmap.height_range.is_none()
+                && frame_view::written_by_texel(file) =>
+        {
+            run_frame(args, limits, picture)
+        }
         Kind::Terrain => run_terrain(args, limits, outputs, picture),
     }
 }

@@ -1,5 +1,6 @@
 //! Human-readable views of our files: summaries as text or JSON, and pictures.
 
+pub mod frame;
 pub mod instances;
 pub mod pictures;
 pub mod terrain;
