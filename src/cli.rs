@@ -221,14 +221,9 @@ fn day(s: &str) -> Result<f64, String> {
 }
 
 fn field_of_view(s: &str) -> Result<f64, String> {
+    use texel_forest::render::camera::{fov_error, fov_ok};
     let v = number(s)?;
-    if v > 0.0 && v < 180.0 {
-        Ok(v)
-    } else {
-        Err(format!(
-            "{v} is not a field of view between 0 and 180 degrees"
-        ))
-    }
+    if fov_ok(v) { Ok(v) } else { Err(fov_error(v)) }
 }
 
 /// A march's work grows as 1 / step: below 1/64 of a cell a frame would take days, and nothing
@@ -489,7 +484,7 @@ pub struct RenderArgs {
         value_parser = point
     )]
     pub target: Option<[f64; 3]>,
-    /// Vertical field of view, degrees (0 to 180).
+    /// Vertical field of view, degrees (0.001 up to 179).
     #[arg(long, value_name = "DEGREES", value_parser = field_of_view)]
     pub fov: Option<f64>,
     /// Sun direction: compass azimuth (degrees clockwise from north, -Z) and elevation

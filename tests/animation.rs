@@ -307,6 +307,14 @@ fn sequences_that_cannot_be_written_or_read_are_refused_before_rendering() {
     let o = run(&["animate", "a.png", "b.png", "-o", "ab.png"], d);
     assert_error(&o, &["b.png", "same size"]);
     assert!(!d.join("ab.png").exists());
+    // A --width that scales the frames past --max-pixels is refused before any is scaled
+    // (65535 x 36863 would take gigabytes).
+    let o = run(
+        &["animate", "a.png", "-o", "wide.png", "--width", "65535"],
+        d,
+    );
+    assert_error(&o, &["--width 65535", "--max-pixels"]);
+    assert!(!d.join("wide.png").exists());
     let o = render(d, &["--frames", "5..2", "-o", "f.#.exr"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let o = render(

@@ -921,3 +921,49 @@ fn inspect_summarises_a_rendered_frame() {
     assert_error(&o, &["crop.exr", "frame", "--map"]);
     assert!(!dir.path().join("map.png").exists());
 }
+
+/// The film holds a crop's pixels alone, so a frame's memory is judged by them: a one-pixel
+/// crop of a frame whose every layer would take 40 GB renders, and a crop that would itself
+/// take more than the machine has is refused by name before any work.
+#[test]
+fn a_crops_memory_is_its_own_pixels() {
+    let dir = small_forest();
+    let aovs = "normal,albedo,canopy,species,lod,samples,cryptomatte";
+    let o = run(
+        &[
+            "render",
+            "forest.instances",
+            "-o",
+            "one.exr",
+            "--width",
+            "8192",
+            "--height",
+            "8192",
+            "--aov",
+            aovs,
+            "--crop",
+            "0,0,1,1",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(
+        &[
+            "render",
+            "forest.instances",
+            "-o",
+            "big.exr",
+            "--width",
+            "16384",
+            "--height",
+            "16384",
+            "--aov",
+            aovs,
+            "--crop",
+            "0,0,16000,16000",
+        ],
+        dir.path(),
+    );
+    assert_error(&o, &["--crop 0,0,16000,16000", "bytes of memory"]);
+    assert!(!dir.path().join("big.exr").exists());
+}

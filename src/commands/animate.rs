@@ -29,7 +29,10 @@ pub fn run(args: &AnimateArgs, limits: &Limits, quiet: bool) -> anyhow::Result<(
         let (w, h) = reader
             .into_dimensions()
             .with_context(|| format!("{}: cannot read the PNG header", path.display()))?;
-        limits.check_pixels(u64::from(w) * u64::from(h), &path.display().to_string())?;
+        limits.check_pixels(
+            u64::from(w) * u64::from(h),
+            &format!("{}'s pixel count", path.display()),
+        )?;
         let first = *size.get_or_insert((w, h));
         if first != (w, h) {
             bail!(
@@ -40,10 +43,19 @@ pub fn run(args: &AnimateArgs, limits: &Limits, quiet: bool) -> anyhow::Result<(
                 first.1
             );
         }
-        bytes_held += 3 * u64::from(w) * u64::from(h);
+        // The size the frame is kept at, checked before it is decoded or scaled.
+        let (kept_w, kept_h) = match args.width {
+            Some(width) if width != w => (width, scaled_height(w, h, width)),
+            _ => (w, h),
+        };
+        limits.check_pixels(
+            u64::from(kept_w) * u64::from(kept_h),
+            &format!("the frames' pixel count at --width {kept_w} ({kept_w}x{kept_h})"),
+        )?;
+        bytes_held += 3 * u64::from(kept_w) * u64::from(kept_h);
         check_memory(
-            bytes_held,
-            &format!("{} frames of {w}x{h}", frames.len() + 1),
+            bytes_held + 3 * u64::from(w) * u64::from(h),
+            &format!("{} frames of {kept_w}x{kept_h}", frames.len() + 1),
         )?;
         reader =
             image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png);
@@ -54,16 +66,12 @@ pub fn run(args: &AnimateArgs, limits: &Limits, quiet: bool) -> anyhow::Result<(
         let frame = match args.width {
             // A triangle filter over the whole footprint of each new pixel: no aliasing of
             // the canopy's fine detail when shrinking, and the same bytes every time.
-            Some(width) if width != w => {
-                let height = ((u64::from(h) * u64::from(width) + u64::from(w) / 2) / u64::from(w))
-                    .clamp(1, 65535) as u32;
-                image::imageops::resize(
-                    &frame,
-                    width,
-                    height,
-                    image::imageops::FilterType::Triangle,
-                )
-            }
+            Some(width) if width != w => image::imageops::resize(
+                &frame,
+                kept_w,
+                kept_h,
+                image::imageops::FilterType::Triangle,
+            ),
             _ => frame,
         };
         frames.push(frame);
@@ -83,4 +91,9 @@ pub fn run(args: &AnimateArgs, limits: &Limits, quiet: bool) -> anyhow::Result<(
         ));
     }
     Ok(())
+}
+
+/// The height a `w` x `h` frame keeps its shape at when scaled to `width`, rounded.
+fn scaled_height(w: u32, h: u32, width: u32) -> u32 {
+    ((u64::from(h) * u64::from(width) + u64::from(w) / 2) / u64::from(w)).clamp(1, 65535) as u32
 }

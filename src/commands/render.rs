@@ -132,7 +132,14 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
             Aim::Path(p) => {
                 let time = f64::from(shot.frame.unwrap_or(0)) / args.fps;
                 p.camera(time, args.fov, view::DEFAULT_FOV, size)
-                    .map_err(|e| anyhow::anyhow!("frame {}: {e}", shot.frame.unwrap_or(0)))
+                    .map_err(|e| {
+                        let file = args.camera_path.as_deref().unwrap_or(Path::new(""));
+                        anyhow::anyhow!(
+                            "frame {}: {}: {e}",
+                            shot.frame.unwrap_or(0),
+                            file.display()
+                        )
+                    })
             }
             Aim::Still(c) => Ok(*c),
         })
@@ -335,12 +342,6 @@ fn numbered(flag: &str, path: &Path, frame: u32, count: usize) -> anyhow::Result
 fn plan(args: &RenderArgs, limits: &Limits, shots: &[Shot]) -> anyhow::Result<Outputs> {
     let pixels = u64::from(args.width) * u64::from(args.height);
     limits.check_pixels(pixels, "--width x --height")?;
-    // Edges sampled again: a mark per pixel, and the index of each one marked.
-    let per_pixel = aovs(args).bytes_per_pixel() + if args.edge_spp == Some(0) { 0 } else { 5 };
-    check_memory(
-        pixels.saturating_mul(per_pixel),
-        &format!("a {}x{} frame", args.width, args.height),
-    )?;
     if let Some([x0, y0, x1, y1]) = args.crop
         && !(x1 <= args.width && y1 <= args.height)
     {
@@ -350,6 +351,30 @@ fn plan(args: &RenderArgs, limits: &Limits, shots: &[Shot]) -> anyhow::Result<Ou
             args.height
         );
     }
+    // The film holds the crop's pixels alone; edges sampled again add a mark per pixel and
+    // the index of each one marked.
+    let (held, what) = match args.crop {
+        Some([x0, y0, x1, y1]) => (
+            u64::from(x1 - x0) * u64::from(y1 - y0),
+            format!(
+                "--crop {x0},{y0},{x1},{y1}'s {}x{} pixels",
+                x1 - x0,
+                y1 - y0
+            ),
+        ),
+        None => (
+            pixels,
+            format!(
+                "a {}x{} frame (--width x --height)",
+                args.width, args.height
+            ),
+        ),
+    };
+    let per_pixel = aovs(args).bytes_per_pixel() + if args.edge_spp == Some(0) { 0 } else { 5 };
+    check_memory(
+        held.saturating_mul(per_pixel),
+        &format!("{what}, with the layers --aov asks for,"),
+    )?;
     let mut outputs = Outputs::new(&inputs(args));
     for s in shots {
         outputs.add("-o", &s.exr)?;

@@ -19,6 +19,53 @@ pub struct Camera {
     pub height: u32,
 }
 
+/// How far from the origin an eye may be (m). The frame's camera matrices are written in f32,
+/// and every point is rendered relative to the eye in f32: beyond this they could not hold it
+/// (and nothing placed on a terrain is this far off).
+pub const EYE_LIMIT: f64 = 1e12;
+
+/// The vertical fields of view a camera may have (degrees): from this up to, and not
+/// including, [`FOV_MAX`]. Narrower, a pixel's direction is lost to rounding.
+pub const FOV_MIN: f64 = 1e-3;
+/// Wider, the image's edge runs to infinity on the image plane.
+pub const FOV_MAX: f64 = 179.0;
+
+/// Whether `degrees` is a vertical field of view a camera may have.
+pub fn fov_ok(degrees: f64) -> bool {
+    (FOV_MIN..FOV_MAX).contains(&degrees)
+}
+
+/// Why a field of view is refused, for `degrees` that [`fov_ok`] refuses.
+pub fn fov_error(degrees: f64) -> String {
+    format!(
+        "{} degrees is not a field of view from {FOV_MIN} up to (not including) {FOV_MAX}",
+        short(degrees)
+    )
+}
+
+/// `v` as a person reads it: in full between 1e-3 and 1e6, else in scientific notation.
+fn short(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e6).contains(&v.abs()) || !v.is_finite() {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// Why an eye is refused, where it lies beyond [`EYE_LIMIT`] (or is not finite).
+pub fn eye_error(eye: DVec3) -> Option<String> {
+    // NaN is beyond too.
+    let within = eye.abs().max_element() <= EYE_LIMIT;
+    (!within).then(|| {
+        format!(
+            "the eye ({}, {}, {}) lies beyond {EYE_LIMIT:e} m of the origin, more than the frame's f32 matrices hold",
+            short(eye.x),
+            short(eye.y),
+            short(eye.z)
+        )
+    })
+}
+
 impl Camera {
     /// A camera at `eye` looking at `target`, +Y up (or +Z when looking straight up or down).
     pub fn look_at(
@@ -28,6 +75,9 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Camera, String> {
+        if let Some(e) = eye_error(eye) {
+            return Err(e);
+        }
         let d = target - eye;
         if !d.is_finite() {
             return Err(format!(
@@ -43,10 +93,8 @@ impl Camera {
         if forward == DVec3::ZERO || !forward.is_finite() {
             return Err("the camera's eye and target coincide".into());
         }
-        if !(vfov_degrees > 0.0 && vfov_degrees < 179.0) {
-            return Err(format!(
-                "field of view {vfov_degrees} degrees must be between 0 and 179"
-            ));
+        if !fov_ok(vfov_degrees) {
+            return Err(fov_error(vfov_degrees));
         }
         if width == 0 || height == 0 {
             return Err("the image needs a width and a height of at least 1 pixel".into());
@@ -78,6 +126,12 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Camera, String> {
+        if forward.normalize_or_zero() == DVec3::ZERO {
+            return Err(
+                "the camera has no viewing direction: its eye and target coincide, or its node's transform scales it to nothing"
+                    .into(),
+            );
+        }
         Camera::look_at(eye, eye + forward, vfov.to_degrees(), width, height).map(|mut c| {
             let right = c.forward.cross(up).normalize_or_zero();
             if right != DVec3::ZERO {
@@ -244,17 +298,45 @@ mod tests {
         );
     }
 
+    /// An eye beyond what the frame's f32 matrices hold, a field of view outside
+    /// [FOV_MIN, FOV_MAX), and a camera node scaled to nothing are refused with what is wrong,
+    /// not as an eye that meets its target.
+    #[test]
+    fn cameras_the_frame_cannot_hold_are_refused_with_the_reason() {
+        let far = Camera::look_at(DVec3::new(1e300, 0.0, 0.0), DVec3::ZERO, 40.0, 4, 4);
+        assert!(
+            far.unwrap_err()
+                .contains("(1e300, 0, 0) lies beyond 1e12 m")
+        );
+        let edge = DVec3::new(super::EYE_LIMIT, 0.0, 0.0);
+        let c = Camera::look_at(edge, DVec3::ZERO, 40.0, 4, 4).unwrap();
+        assert!(c.world_to_camera().iter().all(|x| x.is_finite()));
+        assert!(c.world_to_ndc().iter().all(|x| x.is_finite()));
+        for fov in [0.0, 1e-40, 179.0, 179.5, f64::NAN] {
+            let e = Camera::look_at(DVec3::ZERO, DVec3::X, fov, 4, 4).unwrap_err();
+            assert!(e.contains("is not a field of view"), "{fov}: {e}");
+        }
+        for fov in [super::FOV_MIN, 178.9] {
+            assert!(
+                Camera::look_at(DVec3::ZERO, DVec3::X, fov, 4, 4).is_ok(),
+                "{fov}"
+            );
+        }
+        let flat = Camera::from_frame(DVec3::ZERO, DVec3::ZERO, DVec3::Y, 0.6, 4, 4);
+        assert!(flat.unwrap_err().contains("no viewing direction"));
+    }
+
     #[test]
     fn a_target_far_beyond_a_squared_lengths_range_still_gives_the_direction() {
         let c = Camera::look_at(DVec3::ZERO, DVec3::new(1e300, 0.0, 1e300), 40.0, 4, 4).unwrap();
         assert!((c.forward - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-12);
-        let e = DVec3::splat(1e300);
+        let e = DVec3::splat(1e11);
         assert!(
             Camera::look_at(e, e, 40.0, 4, 4)
                 .unwrap_err()
                 .contains("coincide")
         );
-        let far = Camera::look_at(-e, DVec3::splat(f64::MAX), 40.0, 4, 4).unwrap_err();
+        let far = Camera::look_at(-e, DVec3::splat(f64::INFINITY), 40.0, 4, 4).unwrap_err();
         assert!(far.contains("too far apart"), "{far}");
     }
 

@@ -220,6 +220,9 @@ impl Keyframes {
                     return bad(f(name), "must be three finite numbers (metres)".into());
                 }
             }
+            if let Some(e) = super::camera::eye_error(DVec3::from(k.eye)) {
+                return bad(f("eye"), e);
+            }
             if k.eye == k.target {
                 return bad(
                     f("target"),
@@ -227,8 +230,8 @@ impl Keyframes {
                 );
             }
             match k.fov {
-                Some(v) if !(v > 0.0 && v < 179.0) => {
-                    return bad(f("fov"), format!("{v} degrees: must be between 0 and 179"));
+                Some(v) if !super::camera::fov_ok(v) => {
+                    return bad(f("fov"), super::camera::fov_error(v));
                 }
                 Some(_) if !with_fov => {
                     return bad(

@@ -8,6 +8,8 @@
 //!   area (upslope area per unit contour width, metres) from multiple-flow-direction
 //!   accumulation and `b` the slope, `tan b` floored at 0.001.
 
+use rayon::prelude::*;
+
 use super::Heightfield;
 
 /// Names of the attributes, in the order [`Attributes::get`] numbers them.
@@ -149,27 +151,35 @@ fn topographic_position(f: &Heightfield, radius: f64) -> Vec<f32> {
             count[(f.nx + 1) * j + i + 1] = count[(f.nx + 1) * j + i] + c;
         }
     }
+    // Row by row (rows in parallel), each row of the disc added to every cell of the row in
+    // turn: the prefix sums are read in sweeps along their rows, not in a column of scattered
+    // reads per cell (which left this bound by cache misses: 25 s at half a metre a cell on
+    // a 1 km terrain). Each cell still adds its disc's rows in the same order, so the sums,
+    // and the result, have the same bits.
     let mut out = vec![f32::NAN; f.height.len()];
-    for j in 0..f.nz {
-        for i in 0..f.nx {
-            let centre = f.at(i, j);
-            if centre.is_nan() {
-                continue;
-            }
-            let (mut s, mut c) = (0.0, 0u32);
-            let rows = (-reach).max(-(j as isize))..=reach.min((f.nz - 1 - j) as isize);
-            for dj in rows {
-                let row = j as isize + dj;
-                let half = ((r * r - (dj * dj) as f64).max(0.0)).sqrt().floor() as isize;
+    out.par_chunks_mut(f.nx).enumerate().for_each(|(j, out)| {
+        let mut s = vec![0.0f64; f.nx];
+        let mut c = vec![0u32; f.nx];
+        let rows = (-reach).max(-(j as isize))..=reach.min((f.nz - 1 - j) as isize);
+        for dj in rows {
+            let row = j as isize + dj;
+            let half = ((r * r - (dj * dj) as f64).max(0.0)).sqrt().floor() as isize;
+            let base = (f.nx + 1) * row as usize;
+            let (sum, count) = (&sum[base..base + f.nx + 1], &count[base..base + f.nx + 1]);
+            for i in 0..f.nx {
                 let a = (i as isize - half).max(0) as usize;
                 let b = ((i as isize + half + 1) as usize).min(f.nx);
-                let base = (f.nx + 1) * row as usize;
-                s += sum[base + b] - sum[base + a];
-                c += count[base + b] - count[base + a];
+                s[i] += sum[b] - sum[a];
+                c[i] += count[b] - count[a];
             }
-            out[i + f.nx * j] = (centre as f64 - s / c.max(1) as f64) as f32;
         }
-    }
+        for (i, o) in out.iter_mut().enumerate() {
+            let centre = f.at(i, j);
+            if !centre.is_nan() {
+                *o = (centre as f64 - s[i] / c[i].max(1) as f64) as f32;
+            }
+        }
+    });
     out
 }
 
