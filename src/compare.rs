@@ -294,6 +294,10 @@ impl Comparison {
         if self.non_finite > 0 {
             s += &format!(", {} of them not finite (left out)", self.non_finite);
         }
+        if self.pixels == self.non_finite {
+            // An empty mask, or no finite pixel: zeros would read as a perfect match.
+            return s + "\n  no pixels to measure\n";
+        }
         s += "\n           rmse   rel. mse   mean |e|     max |e|\n";
         s += &self.rgb.line("rgb");
         s += &self.alpha.line("alpha");
@@ -568,5 +572,16 @@ mod tests {
         assert_eq!(c.non_finite, 1);
         assert!(c.rgb.rmse == 0.0 && c.rgb.max.is_finite());
         assert_eq!(heatmap(&a, &b, 1.0).get_pixel(0, 0).0, [0, 255, 255]);
+    }
+
+    /// An empty mask measures nothing, and says so: zeros would read as a perfect match.
+    #[test]
+    fn no_pixels_are_reported_as_none_measured() {
+        let (a, b) = (image(2, 1, |_| [0.5; 4]), image(2, 1, |_| [0.25; 4]));
+        let text = compare(&a, &b, |_| false).to_text("inside the mask");
+        assert!(
+            text.contains("inside the mask: 0 pixels") && text.contains("no pixels to measure")
+        );
+        assert!(!text.contains("rmse"), "{text}");
     }
 }

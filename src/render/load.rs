@@ -80,6 +80,9 @@ pub enum LoadError {
     /// The files are readable but do not fit together, or ask for more than the renderer holds.
     #[error("{file}: {message}")]
     Mismatch { file: PathBuf, message: String },
+    /// The terrain could not be read (its errors name the file themselves).
+    #[error(transparent)]
+    Terrain(#[from] crate::terrain::TerrainError),
 }
 
 fn file_error(file: &Path, e: impl std::error::Error + Send + Sync + 'static) -> LoadError {
@@ -197,7 +200,7 @@ fn load_terrain(
         &request.limits,
     )
     .map(|(model, _)| model)
-    .map_err(|e| file_error(&terrain_path, e))
+    .map_err(LoadError::from)
 }
 
 /// The textures a forest names, each read once, checked against the forest's record and
