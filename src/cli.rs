@@ -446,7 +446,8 @@ pub struct RenderArgs {
     /// With --terrain: how a heightmap becomes metres.
     #[command(flatten)]
     pub heightmap: HeightmapArgs,
-    /// A camera node of the terrain glTF (or of --camera-file), by name.
+    /// A perspective camera of the terrain glTF (or of --camera-file), by its name or the
+    /// name of the node that places it.
     #[arg(long, value_name = "NAME", conflicts_with_all = ["eye", "target"])]
     pub camera: Option<String>,
     /// A glTF file holding the camera named by --camera (and lights).

@@ -236,7 +236,8 @@ fn a_gltf_camera_node_and_directional_light_stand_in_for_the_flags() {
         "extensions": { "KHR_lights_punctual": { "lights": [{ "type": "directional" }] } },
         "scenes": [{ "nodes": [0, 1] }],
         "nodes": [
-            { "camera": 0, "translation": eye.to_array(), "rotation": look.to_array() },
+            { "name": "lookout", "camera": 0, "translation": eye.to_array(),
+              "rotation": look.to_array() },
             { "extensions": { "KHR_lights_punctual": { "light": 0 } }, "rotation": sun.to_array() },
         ],
         "cameras": [{ "type": "perspective", "name": "overlook",
@@ -261,6 +262,13 @@ fn a_gltf_camera_node_and_directional_light_stand_in_for_the_flags() {
         dir.path(),
     );
     assert!(o.status.success(), "{}", stderr(&o));
+    // The camera's node names it as well as the camera's own name does.
+    let mut by_node = vec!["render", "forest.instances", "--camera-file", "view.gltf"];
+    by_node.extend(["--camera", "lookout", "--width", "64", "--height", "36"]);
+    by_node.extend(["-o", "node.exr"]);
+    let o = run(&by_node, dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_same_bytes(dir.path(), "gltf.exr", "node.exr");
     let o = render(dir.path(), &["--sun", "120,35", "-o", "flags.exr"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let (a, va) = rgba_and_view(&dir.path().join("gltf.exr"));
@@ -515,7 +523,10 @@ fn missing_or_stale_inputs_are_refused_before_rendering() {
     let dir = small_forest();
     for (flags, needle) in [
         (vec!["--crop", "0,0,2000,10"], "--crop"),
-        (vec!["--camera", "nope"], "no such camera"),
+        (
+            vec!["--camera", "nope"],
+            "no perspective camera or camera node",
+        ),
     ] {
         let mut a = vec!["render", "forest.instances", "-o", "x.exr"];
         a.extend(flags);

@@ -173,6 +173,7 @@ impl CameraAnimation {
         let axis = |v: DVec3| world.transform_vector3(v).normalize_or_zero();
         SceneCamera {
             name: self.name.clone(),
+            node: None,
             eye: world.transform_point3(DVec3::ZERO),
             forward: axis(DVec3::NEG_Z),
             up: axis(DVec3::Y),

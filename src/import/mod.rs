@@ -159,7 +159,10 @@ impl Mesh {
 /// A perspective camera of the scene, in the model's space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneCamera {
+    /// The camera's name, else its node's, else "camera N".
     pub name: String,
+    /// The name of the node that places it, where it has one (`--camera` takes either).
+    pub node: Option<String>,
     pub eye: glam::DVec3,
     /// Unit viewing direction (the node's -Z) and up (its +Y).
     pub forward: glam::DVec3,

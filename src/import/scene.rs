@@ -202,6 +202,7 @@ fn collect_views(doc: &Document, b: &mut Builder, node: &json::Node, world: DMat
                 .clone()
                 .or_else(|| node.name.clone())
                 .unwrap_or_else(|| format!("camera {}", b.cameras.len())),
+            node: node.name.clone(),
             eye: world.transform_point3(DVec3::ZERO),
             forward: axis(DVec3::NEG_Z),
             up: axis(DVec3::Y),

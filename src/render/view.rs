@@ -42,10 +42,25 @@ pub fn camera(
         )
         .map_err(|e| format!("--eye/--target: {e}")),
         CameraChoice::Named(name) => {
-            let Some(c) = cameras.iter().find(|c| c.name == name) else {
-                let names: Vec<&str> = cameras.iter().map(|c| c.name.as_str()).collect();
+            let found = cameras
+                .iter()
+                .find(|c| c.name == name)
+                .or_else(|| cameras.iter().find(|c| c.node.as_deref() == Some(name)));
+            let Some(c) = found else {
+                // Each camera once (nodes may share one), with its node where that is named
+                // otherwise.
+                let mut names: Vec<String> = Vec::new();
+                for c in cameras {
+                    let shown = match &c.node {
+                        Some(n) if *n != c.name => format!("{} (node {n})", c.name),
+                        _ => c.name.clone(),
+                    };
+                    if !names.contains(&shown) {
+                        names.push(shown);
+                    }
+                }
                 return Err(format!(
-                    "--camera {name:?}: no such camera (the glTF has: {})",
+                    "--camera {name:?}: no perspective camera or camera node of that name (the glTF has: {})",
                     if names.is_empty() {
                         "none".to_string()
                     } else {
