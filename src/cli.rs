@@ -656,11 +656,15 @@ pub struct BakeArgs {
     /// The .texel file to write.
     #[arg(short, long, value_name = "FILE")]
     pub output: PathBuf,
-    /// Texture cells along the model's longest side.
-    #[arg(long, default_value_t = 32, value_name = "CELLS")]
+    /// Texture cells along the model's longest side (1 to 256).
+    #[arg(long, default_value_t = 32, value_name = "CELLS",
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new()
+              .range(1..=texel_forest::bake::MAX_RESOLUTION as u64))]
     pub resolution: usize,
-    /// Fine scan cells along the longest side (a multiple of --resolution).
-    #[arg(long, default_value_t = 256, value_name = "CELLS")]
+    /// Fine scan cells along the longest side (a multiple of --resolution, at most 4096).
+    #[arg(long, default_value_t = 256, value_name = "CELLS",
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new()
+              .range(1..=texel_forest::bake::MAX_FINE as u64))]
     pub fine: usize,
     /// How density becomes extinction.
     #[arg(long, value_enum, default_value_t = DensityArg::Transmittance)]

@@ -404,6 +404,17 @@ fn absurd_sizes_and_values_are_refused_up_front() {
     usage_error(&render(&["--crop", "0.5,0,4,4"]), "--crop");
     usage_error(&render(&["--sky", "1e39,0,0"]), "--sky");
     usage_error(&render(&["--eye", "0,0,inf", "--target", "1,1,1"]), "--eye");
+    usage_error(&render(&["--fov", "179.5"]), "--fov");
+    usage_error(&render(&["--fov", "1e-40"]), "--fov");
+    // Each bake size out of its range is a usage error too; a --fine that is no multiple of
+    // --resolution contradicts it, an input error naming both.
+    let bake = |flags: &[&str]| {
+        let mut a = vec!["bake", "missing.glb", "-o", "x.texel"];
+        a.extend_from_slice(flags);
+        run(&a, dir.path())
+    };
+    usage_error(&bake(&["--resolution", "0"]), "--resolution");
+    usage_error(&bake(&["--fine", "5000"]), "--fine");
     usage_error(&render(&["--fov", "180"]), "--fov");
     // A march's work grows as 1 / step: 1e-30 would never finish (1e-50 is 0 as f32).
     usage_error(&render(&["--step", "1e-30"]), "--step");

@@ -124,8 +124,8 @@ fn pattern(flag: &str, text: &str) -> Result<Regex, BakeError> {
 }
 
 /// Largest texture and fine resolutions accepted: 256^3 cells is 700 MiB of voxels already.
-const MAX_RESOLUTION: usize = 256;
-const MAX_FINE: usize = 4096;
+pub const MAX_RESOLUTION: usize = 256;
+pub const MAX_FINE: usize = 4096;
 /// Smallest model accepted, metres: below it, extinctions of opaque cells overflow `f32`
 /// (and no tree is a tenth of a millimetre tall).
 const MIN_MODEL_SIZE: f64 = 1e-4;
