@@ -45,13 +45,16 @@ pub fn run(args: &AnimateArgs, limits: &Limits, quiet: bool) -> anyhow::Result<(
         }
         // The size the frame is kept at, checked before it is decoded or scaled.
         let (kept_w, kept_h) = match args.width {
-            Some(width) if width != w => (width, scaled_height(w, h, width)),
+            Some(width) if width != w => {
+                let height = scaled_height(w, h, width);
+                limits.check_pixels(
+                    u64::from(width) * u64::from(height),
+                    &format!("the frames' pixel count at --width {width} ({width}x{height})"),
+                )?;
+                (width, height)
+            }
             _ => (w, h),
         };
-        limits.check_pixels(
-            u64::from(kept_w) * u64::from(kept_h),
-            &format!("the frames' pixel count at --width {kept_w} ({kept_w}x{kept_h})"),
-        )?;
         bytes_held += 3 * u64::from(kept_w) * u64::from(kept_h);
         check_memory(
             bytes_held + 3 * u64::from(w) * u64::from(h),

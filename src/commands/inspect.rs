@@ -60,9 +60,6 @@ fn write_png(mut outputs: Outputs, id: OutputId, image: &image::RgbImage) -> any
     Ok(outputs.commit()?)
 }
 
-/// The first bytes of every OpenEXR file.
-const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
-
 /// A frame `texel render` wrote: its summary (it has no picture but itself).
 fn run_frame(args: &InspectArgs, limits: &Limits, picture: Option<OutputId>) -> anyhow::Result<()> {
     let file = &args.file;
@@ -104,7 +101,7 @@ pub fn run(args: &InspectArgs, limits: &Limits) -> anyhow::Result<()> {
         // An OpenEXR is a heightmap unless `texel render` wrote it (and no heightmap flag
         // says to read it as one).
         Kind::Terrain
-            if head.starts_with(&EXR_MAGIC)
+            if head.starts_with(&texel_forest::terrain::heightmap::EXR_MAGIC)
                 && args.heightmap.terrain_size.is_none()
                 && args.heightmap.height_range.is_none()
                 && frame_view::written_by_texel(file) =>

@@ -23,7 +23,8 @@ use crate::cli::{AovArg, MethodArg, RenderArgs, ShadowsArg};
 
 /// Where a run's camera comes from.
 enum Aim<'a> {
-    Path(&'a CameraPath),
+    /// A camera path, and the file it was read from.
+    Path(&'a CameraPath, &'a Path),
     Still(Camera),
 }
 
@@ -101,9 +102,9 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         dependencies.extend(files.iter().cloned());
     }
     // Where the camera comes from: the path, frame by frame, or the flags, once.
-    let aim = match &path {
-        Some((p, _)) => Aim::Path(p),
-        None => Aim::Still(camera(args, &loaded, &views)?),
+    let aim = match (&path, &args.camera_path) {
+        (Some((p, _)), Some(file)) => Aim::Path(p, file),
+        _ => Aim::Still(camera(args, &loaded, &views)?),
     };
     let lighting = Lighting {
         sun: view::sun(args.sun, &views.suns),
@@ -129,11 +130,10 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     let cameras = shots
         .iter()
         .map(|shot| match &aim {
-            Aim::Path(p) => {
+            Aim::Path(p, file) => {
                 let time = f64::from(shot.frame.unwrap_or(0)) / args.fps;
                 p.camera(time, args.fov, view::DEFAULT_FOV, size)
                     .map_err(|e| {
-                        let file = args.camera_path.as_deref().unwrap_or(Path::new(""));
                         anyhow::anyhow!(
                             "frame {}: {}: {e}",
                             shot.frame.unwrap_or(0),
@@ -145,7 +145,7 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         })
         .collect::<anyhow::Result<Vec<Camera>>>()?;
     for (n, (shot, camera)) in shots.iter().zip(cameras).enumerate() {
-        if let (Aim::Path(_), Some(l)) = (&aim, &loaded) {
+        if let (Aim::Path(..), Some(l)) = (&aim, &loaded) {
             warn_underground(l, &camera);
         }
         let build_start = Instant::now();

@@ -132,6 +132,12 @@ pub fn load(
         }
     }
     if terrain {
+        if inputs.forest.heightmap.is_some() {
+            return Err(ExportError::Mismatch {
+                file: path.to_path_buf(),
+                message: "--with-terrain copies a glTF terrain's nodes, and this forest was placed on a heightmap image: export without it, or place on a glTF surface".into(),
+            });
+        }
         let records = &inputs.forest.info.terrain;
         let files = provenance::verify_all(records, &dir, PLACED, MAX_GLTF)
             .map_err(|e| stale(path, e, "re-run texel place"))?;

@@ -202,16 +202,27 @@ pub fn load_camera_animation(
     let moved = |chain: &[usize]| chain.iter().any(|n| tracks.iter().any(|t| t.node == *n));
     let names: Vec<String> = chains.iter().map(|(n, _, _)| n.clone()).collect();
     let chosen = match name {
-        Some(name) => chains.iter().find(|(n, _, _)| n == name).ok_or_else(|| {
-            ImportError::invalid(
-                path,
-                "cameras",
-                format!(
-                    "no camera named {name:?} (the default scene has: {})",
-                    list(&names)
-                ),
-            )
-        })?,
+        // By the camera's own name first, then by its node's (as `render --camera` finds a
+        // still camera).
+        Some(name) => chains
+            .iter()
+            .find(|(n, _, _)| n == name)
+            .or_else(|| {
+                chains.iter().find(|(_, _, chain)| {
+                    let node = chain[chain.len() - 1];
+                    doc.root.nodes.get(node).and_then(|n| n.name.as_deref()) == Some(name)
+                })
+            })
+            .ok_or_else(|| {
+                ImportError::invalid(
+                    path,
+                    "cameras",
+                    format!(
+                        "no camera named {name:?} (the default scene has: {})",
+                        list(&names)
+                    ),
+                )
+            })?,
         None => chains.iter().find(|(_, _, c)| moved(c)).ok_or_else(|| {
             ImportError::invalid(
                 path,

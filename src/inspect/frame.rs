@@ -15,9 +15,7 @@ use super::printable;
 use crate::compare::{CompareError, ExrLayer};
 use crate::limits::Limits;
 use crate::number::number;
-
-/// The `software` attribute of the frames `texel render` writes begins so.
-pub const SOFTWARE: &str = "texel-forest";
+use crate::render::film::SOFTWARE;
 
 /// Whether the OpenEXR file at `path` was written by texel-forest (its first part's
 /// `software` attribute says so): such a file is a frame, any other a heightmap. Reads the
@@ -79,10 +77,11 @@ pub struct ChannelSummary {
     pub min: Option<f64>,
     pub max: Option<f64>,
     pub mean: Option<f64>,
-    /// Values that are NaN.
-    pub nan: u64,
-    /// Values that are infinite (depth `Z` is +infinity where nothing covers the pixel).
-    pub infinite: u64,
+    /// Values that are NaN; `None` for ids, whose bits may read as NaN.
+    pub nan: Option<u64>,
+    /// Values that are infinite (depth `Z` is +infinity where nothing covers the pixel);
+    /// `None` for ids.
+    pub infinite: Option<u64>,
 }
 
 /// Characters of an attribute's value shown (a Cryptomatte manifest can run to megabytes).
@@ -192,9 +191,9 @@ fn channel(name: &str, samples: &FlatSamples, ids: bool) -> ChannelSummary {
     }
     // Ids are bit patterns: some read as NaN or infinite, and none is a measurement.
     let (stats, nan, infinite) = if ids {
-        (false, 0, 0)
+        (false, None, None)
     } else {
-        (n > 0, nan, infinite)
+        (n > 0, Some(nan), Some(infinite))
     };
     ChannelSummary {
         name: printable(name),
@@ -270,8 +269,8 @@ pub fn to_text(s: &FrameSummary) -> String {
                 value(c.min),
                 value(c.max),
                 value(c.mean),
-                c.nan,
-                c.infinite
+                c.nan.unwrap_or(0),
+                c.infinite.unwrap_or(0)
             )
         };
         let _ = writeln!(

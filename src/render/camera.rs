@@ -128,7 +128,7 @@ impl Camera {
     ) -> Result<Camera, String> {
         if forward.normalize_or_zero() == DVec3::ZERO {
             return Err(
-                "the camera has no viewing direction: its eye and target coincide, or its node's transform scales it to nothing"
+                "the camera has no viewing direction: its eye and target coincide (or lie too far apart to tell a direction), or its node's transform scales it to nothing (or beyond f64)"
                     .into(),
             );
         }

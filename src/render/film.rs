@@ -68,6 +68,10 @@ pub struct Exr {
     pub clamped: usize,
 }
 
+/// What the frames' `software` attribute begins with (then the version): how `texel inspect`
+/// knows a frame from a heightmap.
+pub const SOFTWARE: &str = "texel-forest";
+
 /// Puts the attributes of a single-part OpenEXR file's header in the order of their names.
 /// The `exr` crate writes attributes it does not know (Cryptomatte's) in the order of a
 /// `std::collections::HashMap`, which each process seeds at random: the same render would
@@ -241,10 +245,9 @@ impl Film {
             other,
             world_to_camera: Some(world_to_camera),
             world_to_normalized_device: Some(world_to_ndc),
-            software_name: Some(Text::from(concat!(
-                "texel-forest ",
-                env!("CARGO_PKG_VERSION")
-            ))),
+            software_name: Some(Text::from(
+                format!("{SOFTWARE} {}", env!("CARGO_PKG_VERSION")).as_str(),
+            )),
             layer_position: Vec2(self.x0 as i32, self.y0 as i32),
             ..LayerAttributes::default()
         };

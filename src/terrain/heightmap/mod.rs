@@ -58,6 +58,9 @@ pub enum Format {
     R16,
 }
 
+/// The first bytes of every OpenEXR file.
+pub const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
 impl Format {
     /// The heightmap format of a file from its first bytes (8 suffice) and its name, or `None`
     /// for anything else (a glTF). A damaged file named like a heightmap is taken for one, so
@@ -66,7 +69,7 @@ impl Format {
         if head.starts_with(b"\x89PNG") {
             return Some(Format::Png);
         }
-        if head.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        if head.starts_with(&EXR_MAGIC) {
             return Some(Format::Exr);
         }
         if [b"II*\0", b"MM\0*", b"II+\0", b"MM\0+"]
