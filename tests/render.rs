@@ -946,7 +946,7 @@ fn inspect_summarises_a_rendered_frame() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
-        !text.contains("OpenEXR frame") && text.contains("heightmap"),
+        !text.contains("OpenEXR frame") && text.contains("raster"),
         "{text}"
     );
 }
