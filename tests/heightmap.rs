@@ -121,6 +121,19 @@ fn place_and_render_on_a_heightmap_without_repeating_the_flags() {
         json["heightmap"]["height_range"],
         serde_json::json!([100.0, 600.0])
     );
+    // export copies glTF terrains' nodes only, and says so of a heightmap.
+    let o = run(
+        &[
+            "export",
+            "forest.instances",
+            "-o",
+            "e.glb",
+            "--with-terrain",
+        ],
+        d,
+    );
+    assert_error(&o, &["forest.instances", "--with-terrain", "heightmap"]);
+    assert!(!d.join("e.glb").exists());
 }
 
 /// The shared real DEM (a 257 x 257 glTF grid) sampled at its vertices into a 16-bit PNG reads
