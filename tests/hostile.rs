@@ -415,6 +415,9 @@ fn absurd_sizes_and_values_are_refused_up_front() {
     };
     usage_error(&bake(&["--resolution", "0"]), "--resolution");
     usage_error(&bake(&["--fine", "5000"]), "--fine");
+    let o = bake(&["--fine", "12"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--fine 12") && stderr(&o).contains("--resolution 32"));
     usage_error(&render(&["--fov", "180"]), "--fov");
     // A march's work grows as 1 / step: 1e-30 would never finish (1e-50 is 0 as f32).
     usage_error(&render(&["--step", "1e-30"]), "--step");

@@ -59,14 +59,17 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     let path = args
         .camera_path
         .as_ref()
-        .map(|p| CameraPath::load(p, args.camera.as_deref(), limits))
+        .map(|file| {
+            CameraPath::load(file, args.camera.as_deref(), limits)
+                .map(|(path, files)| (path, files, file.as_path()))
+        })
         .transpose()?;
-    if let Some((CameraPath::Gltf(a), _)) = &path {
+    if let Some((CameraPath::Gltf(a), ..)) = &path {
         for w in &a.warnings {
             super::warn(w);
         }
     }
-    let shots = shots(args, path.as_ref().map(|(p, _)| p))?;
+    let shots = shots(args, path.as_ref().map(|(p, ..)| p))?;
     let mut planned = plan(args, limits, &shots)?;
     let mut loaded = load::load(&SceneRequest {
         forest: &args.instances,
@@ -98,13 +101,13 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         }
         None => loaded.terrain.clone(),
     };
-    if let Some((_, files)) = &path {
+    if let Some((_, files, _)) = &path {
         dependencies.extend(files.iter().cloned());
     }
     // Where the camera comes from: the path, frame by frame, or the flags, once.
-    let aim = match (&path, &args.camera_path) {
-        (Some((p, _)), Some(file)) => Aim::Path(p, file),
-        _ => Aim::Still(camera(args, &loaded, &views)?),
+    let aim = match &path {
+        Some((p, _, file)) => Aim::Path(p, file),
+        None => Aim::Still(camera(args, &loaded, &views)?),
     };
     let lighting = Lighting {
         sun: view::sun(args.sun, &views.suns),

@@ -255,11 +255,7 @@ pub fn to_text(s: &FrameSummary) -> String {
         "channels      {:<24} {:<6} {:>12} {:>12} {:>12} {:>8} {:>8}",
         "name", "type", "min", "max", "mean", "NaN", "infinite"
     );
-    let value = |x: Option<f64>| match x {
-        None => "-".to_string(),
-        Some(x) if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) => format!("{x:.5e}"),
-        Some(x) => format!("{x:.6}"),
-    };
+    let value = |x: Option<f64>| x.map_or("-".to_string(), |x| number(x, 6).to_string());
     for c in &s.channels {
         let numbers = if c.ids {
             format!("{:>38} {:>8} {:>8}", "(Cryptomatte ids)", "-", "-")

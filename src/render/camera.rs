@@ -5,6 +5,8 @@
 
 use glam::{DVec3, Vec3};
 
+use crate::number::shortest;
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     /// World position of the eye.
@@ -39,17 +41,8 @@ pub fn fov_ok(degrees: f64) -> bool {
 pub fn fov_error(degrees: f64) -> String {
     format!(
         "{} degrees is not a field of view from {FOV_MIN} up to (not including) {FOV_MAX}",
-        short(degrees)
+        shortest(degrees)
     )
-}
-
-/// `v` as a person reads it: in full between 1e-3 and 1e6, else in scientific notation.
-fn short(v: f64) -> String {
-    if v == 0.0 || (1e-3..1e6).contains(&v.abs()) || !v.is_finite() {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
-    }
 }
 
 /// Why an eye is refused, where it lies beyond [`EYE_LIMIT`] (or is not finite).
@@ -59,9 +52,9 @@ pub fn eye_error(eye: DVec3) -> Option<String> {
     (!within).then(|| {
         format!(
             "the eye ({}, {}, {}) lies beyond {EYE_LIMIT:e} m of the origin, more than the frame's f32 matrices hold",
-            short(eye.x),
-            short(eye.y),
-            short(eye.z)
+            shortest(eye.x),
+            shortest(eye.y),
+            shortest(eye.z)
         )
     })
 }
