@@ -234,14 +234,19 @@ fn a_gltf_camera_node_and_directional_light_stand_in_for_the_flags() {
         "asset": { "version": "2.0" },
         "extensionsUsed": ["KHR_lights_punctual"],
         "extensions": { "KHR_lights_punctual": { "lights": [{ "type": "directional" }] } },
-        "scenes": [{ "nodes": [0, 1] }],
+        "scenes": [{ "nodes": [0, 1, 2] }],
         "nodes": [
             { "name": "lookout", "camera": 0, "translation": eye.to_array(),
               "rotation": look.to_array() },
             { "extensions": { "KHR_lights_punctual": { "light": 0 } }, "rotation": sun.to_array() },
+            { "camera": 1 },
         ],
-        "cameras": [{ "type": "perspective", "name": "overlook",
-                      "perspective": { "yfov": 40f32.to_radians(), "znear": 0.1 } }],
+        "cameras": [
+            { "type": "perspective", "name": "overlook",
+              "perspective": { "yfov": 40f32.to_radians(), "znear": 0.1 } },
+            { "type": "orthographic", "name": "plan",
+              "orthographic": { "xmag": 500.0, "ymag": 500.0, "znear": 0.1, "zfar": 1e4 } },
+        ],
     });
     std::fs::write(dir.path().join("view.gltf"), doc.to_string()).unwrap();
     let o = run(
@@ -269,6 +274,13 @@ fn a_gltf_camera_node_and_directional_light_stand_in_for_the_flags() {
     let o = run(&by_node, dir.path());
     assert!(o.status.success(), "{}", stderr(&o));
     assert_same_bytes(dir.path(), "gltf.exr", "node.exr");
+    // An orthographic camera is there, but not drawable: said so, not "no such camera".
+    let plan = ["render", "forest.instances", "--camera-file", "view.gltf"];
+    let o = run(
+        &[&plan[..], &["--camera", "plan", "-o", "plan.exr"]].concat(),
+        dir.path(),
+    );
+    assert_error(&o, &["--camera \"plan\" is an orthographic camera"]);
     let o = render(dir.path(), &["--sun", "120,35", "-o", "flags.exr"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let (a, va) = rgba_and_view(&dir.path().join("gltf.exr"));

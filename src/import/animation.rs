@@ -9,7 +9,7 @@ use json::animation::{Interpolation, Property};
 use json::validation::Checked;
 
 use super::document::Document;
-use super::scene::{local_transform, scene_roots, trs};
+use super::scene::{MAX_DEPTH, check_transform, local_transform, scene_roots, trs};
 use super::{ImportError, SceneCamera, accessor};
 use crate::limits::Limits;
 use std::path::Path;
@@ -214,14 +214,18 @@ pub fn load_camera_animation(
                 })
             })
             .ok_or_else(|| {
-                ImportError::invalid(
-                    path,
-                    "cameras",
+                let why = if orthographic(&doc, name) {
                     format!(
-                        "no camera named {name:?} (the default scene has: {})",
+                        "camera {name:?} is orthographic: texel render draws perspective \
+                         cameras only"
+                    )
+                } else {
+                    format!(
+                        "no perspective camera named {name:?} (the default scene has: {})",
                         list(&names)
-                    ),
-                )
+                    )
+                };
+                ImportError::invalid(path, "cameras", why)
             })?,
         None => chains.iter().find(|(_, _, c)| moved(c)).ok_or_else(|| {
             ImportError::invalid(
@@ -304,6 +308,18 @@ pub fn load_camera_animation(
     ))
 }
 
+/// Whether `name` is an orthographic camera's, or the name of a node that holds one.
+fn orthographic(doc: &Document, name: &str) -> bool {
+    doc.root.nodes.iter().any(|n| {
+        n.camera
+            .and_then(|c| doc.root.cameras.get(c.value()))
+            .is_some_and(|c| {
+                c.perspective.is_none()
+                    && (c.name.as_deref() == Some(name) || n.name.as_deref() == Some(name))
+            })
+    })
+}
+
 fn list(names: &[String]) -> String {
     if names.is_empty() {
         "none".into()
@@ -317,17 +333,36 @@ fn list(names: &[String]) -> String {
 fn camera_chains(doc: &Document) -> Result<Vec<(String, f64, Vec<usize>)>, ImportError> {
     let root = &doc.root;
     let mut found = Vec::new();
-    // Depth-first, as the flattening walks the scene, with the path kept; a node met again on
-    // its own path (a cycle) is not entered twice.
+    // Depth-first, as the flattening walks the scene, with the path kept; and refused where
+    // the flattening refuses (a missing node, a cycle, a transform that is none).
     let mut stack: Vec<Vec<usize>> = scene_roots(doc)?.into_iter().map(|n| vec![n]).collect();
     stack.reverse();
     let mut count = 0;
     while let Some(chain) = stack.pop() {
         let index = chain[chain.len() - 1];
         let Some(node) = root.nodes.get(index) else {
-            continue;
+            let field = match chain.len() {
+                1 => "scene.nodes".to_string(),
+                n => format!("nodes[{}].children", chain[n - 2]),
+            };
+            return Err(ImportError::invalid(
+                &doc.path,
+                field,
+                format!("node {index} does not exist ({} nodes)", root.nodes.len()),
+            ));
         };
-        if let Some(c) = node.camera.and_then(|c| root.cameras.get(c.value()))
+        check_transform(&doc.path, index, node)?;
+        let camera = match node.camera.map(|c| c.value()) {
+            Some(c) if c >= root.cameras.len() => {
+                return Err(ImportError::invalid(
+                    &doc.path,
+                    format!("nodes[{index}].camera"),
+                    format!("camera {c} does not exist ({} cameras)", root.cameras.len()),
+                ));
+            }
+            c => c.map(|c| &root.cameras[c]),
+        };
+        if let Some(c) = camera
             && let Some(p) = &c.perspective
         {
             let name = c
@@ -338,15 +373,17 @@ fn camera_chains(doc: &Document) -> Result<Vec<(String, f64, Vec<usize>)>, Impor
             count += 1;
             found.push((name, f64::from(p.yfov), chain.clone()));
         }
-        if chain.len() > 256 {
-            continue;
-        }
         for child in node.children.iter().flatten().rev() {
-            if !chain.contains(&child.value()) {
-                let mut next = chain.clone();
-                next.push(child.value());
-                stack.push(next);
+            if chain.contains(&child.value()) || chain.len() > MAX_DEPTH {
+                return Err(ImportError::invalid(
+                    &doc.path,
+                    format!("nodes[{index}].children"),
+                    "the node hierarchy is cyclic or deeper than 256 levels",
+                ));
             }
+            let mut next = chain.clone();
+            next.push(child.value());
+            stack.push(next);
         }
     }
     Ok(found)
@@ -405,6 +442,13 @@ fn read_channels(doc: &mut Document) -> Result<Vec<Channel>, ImportError> {
                     "invalid",
                 ));
             };
+            check_types(
+                doc,
+                &sfield,
+                sampler.input.value(),
+                sampler.output.value(),
+                property,
+            )?;
             let input = accessor::read(doc, sampler.input.value(), &format!("{sfield}.input"))?;
             let output = accessor::read(doc, sampler.output.value(), &format!("{sfield}.output"))?;
             let track = check_track(&path, &sfield, interpolation, property, input, output)?;
@@ -417,6 +461,77 @@ fn read_channels(doc: &mut Document) -> Result<Vec<Channel>, ImportError> {
         }
     }
     Ok(channels)
+}
+
+/// Refuses the component types glTF does not allow a sampler (section 3.11): key times are
+/// FLOAT; translations and scales FLOAT; rotations FLOAT or normalised integers. Any other
+/// would read as numbers, but not as the exporter meant them (an integer time in seconds).
+fn check_types(
+    doc: &Document,
+    sfield: &str,
+    input: usize,
+    output: usize,
+    property: Property,
+) -> Result<(), ImportError> {
+    use json::accessor::ComponentType as C;
+    let type_of = |index: usize| {
+        doc.root.accessors.get(index).map(|a| {
+            let ct = match a.component_type {
+                Checked::Valid(json::accessor::GenericComponentType(ct)) => Some(ct),
+                Checked::Invalid => None,
+            };
+            (ct, a.normalized)
+        })
+    };
+    if let Some((ct, _)) = type_of(input)
+        && ct != Some(C::F32)
+    {
+        return Err(ImportError::invalid(
+            &doc.path,
+            format!("{sfield}.input"),
+            format!("key times are {}, not FLOAT (seconds)", name(ct)),
+        ));
+    }
+    if let Some((ct, normalized)) = type_of(output) {
+        let fits = match property {
+            Property::Rotation => {
+                ct == Some(C::F32)
+                    || (normalized && matches!(ct, Some(C::I8 | C::U8 | C::I16 | C::U16)))
+            }
+            _ => ct == Some(C::F32),
+        };
+        if !fits {
+            return Err(ImportError::invalid(
+                &doc.path,
+                format!("{sfield}.output"),
+                format!(
+                    "{property:?} values are {}{}, which glTF does not allow (FLOAT{})",
+                    if normalized { "normalized " } else { "" },
+                    name(ct),
+                    if property == Property::Rotation {
+                        ", or normalized BYTE, UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT"
+                    } else {
+                        ""
+                    }
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A component type as the glTF spec names it.
+fn name(ct: Option<json::accessor::ComponentType>) -> &'static str {
+    use json::accessor::ComponentType as C;
+    match ct {
+        Some(C::I8) => "BYTE",
+        Some(C::U8) => "UNSIGNED_BYTE",
+        Some(C::I16) => "SHORT",
+        Some(C::U16) => "UNSIGNED_SHORT",
+        Some(C::U32) => "UNSIGNED_INT",
+        Some(C::F32) => "FLOAT",
+        None => "an invalid component type",
+    }
 }
 
 fn check_track(
@@ -481,6 +596,24 @@ fn check_track(
         return Err(bad(
             "output",
             format!("value {} is not finite", i / components),
+        ));
+    }
+    // A rotation key must be a quaternion that normalises (CUBICSPLINE's tangents, the first
+    // and last of each three, may be zero).
+    if property == Property::Rotation
+        && let Some(k) = (0..output.count()).find(|&k| {
+            let q = output.element(k);
+            let tangent = per_key == 3 && k % 3 != 1;
+            !tangent && q.iter().map(|v| v * v).sum::<f64>() <= 1e-12
+        })
+    {
+        return Err(bad(
+            "output",
+            format!(
+                "rotation {k}, {:?}, is no rotation: it does not normalise to a unit \
+                 quaternion [x, y, z, w]",
+                output.element(k)
+            ),
         ));
     }
     Ok(Track {

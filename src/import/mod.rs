@@ -187,6 +187,9 @@ pub struct SceneSun {
 pub struct Model {
     pub mesh: Mesh,
     pub cameras: Vec<SceneCamera>,
+    /// The names of the orthographic cameras (their own and their nodes'): not drawable, but
+    /// named in the error when `--camera` asks for one.
+    pub orthographic: Vec<String>,
     pub suns: Vec<SceneSun>,
     /// Every file read: the glTF first, then external buffers and images, in the order read.
     pub sources: Vec<Source<PathBuf>>,
@@ -274,10 +277,16 @@ pub fn load_bytes(path: &Path, bytes: Vec<u8>, limits: &Limits) -> Result<Model,
 }
 
 fn model_of(mut doc: document::Document) -> Result<Model, ImportError> {
-    let (mesh, cameras, suns) = scene::flatten(&mut doc)?;
+    let scene::Flattened {
+        mesh,
+        cameras,
+        orthographic,
+        suns,
+    } = scene::flatten(&mut doc)?;
     Ok(Model {
         mesh,
         cameras,
+        orthographic,
         suns,
         sources: doc.sources,
         warnings: doc.warnings,

@@ -2,6 +2,7 @@
 //! transform (matrix or TRS) to its mesh's triangle primitives, and collects materials.
 
 use std::collections::HashMap;
+use std::path::Path;
 
 use glam::{DMat4, DQuat, DVec3, Mat3, Vec2, Vec3, Vec4};
 use gltf_json as json;
@@ -14,11 +15,14 @@ use super::image::load_texture;
 use super::{AlphaMode, ImportError, Material, Mesh, SceneCamera, SceneSun, Triangle};
 
 /// Deeper hierarchies than this are refused as malformed (real assets nest a handful of levels).
-const MAX_DEPTH: usize = 256;
+pub(super) const MAX_DEPTH: usize = 256;
 
 struct Builder {
     mesh: Mesh,
     cameras: Vec<SceneCamera>,
+    /// The names (the camera's and its node's) of the orthographic cameras, which a render
+    /// cannot use but a user may ask for.
+    orthographic: Vec<String>,
     suns: Vec<SceneSun>,
     /// glTF material index (None = default material) -> index in `mesh.materials`.
     materials: HashMap<Option<usize>, u32>,
@@ -26,13 +30,21 @@ struct Builder {
     textures: HashMap<usize, u32>,
 }
 
-pub(super) fn flatten(
-    doc: &mut Document,
-) -> Result<(Mesh, Vec<SceneCamera>, Vec<SceneSun>), ImportError> {
+/// The default scene, flattened: its triangles, perspective cameras, orthographic cameras'
+/// names and directional lights.
+pub(super) struct Flattened {
+    pub mesh: Mesh,
+    pub cameras: Vec<SceneCamera>,
+    pub orthographic: Vec<String>,
+    pub suns: Vec<SceneSun>,
+}
+
+pub(super) fn flatten(doc: &mut Document) -> Result<Flattened, ImportError> {
     let roots = scene_roots(doc)?;
     let mut builder = Builder {
         mesh: Mesh::default(),
         cameras: Vec::new(),
+        orthographic: Vec::new(),
         suns: Vec::new(),
         materials: HashMap::new(),
         textures: HashMap::new(),
@@ -49,7 +61,12 @@ pub(super) fn flatten(
             &format!("scene.nodes[{i}]"),
         )?;
     }
-    Ok((builder.mesh, builder.cameras, builder.suns))
+    Ok(Flattened {
+        mesh: builder.mesh,
+        cameras: builder.cameras,
+        orthographic: builder.orthographic,
+        suns: builder.suns,
+    })
 }
 
 /// The root nodes of the default scene: `scene`, else the first scene, else (a file with no
@@ -91,6 +108,46 @@ pub(super) fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
     Ok(scene.nodes.iter().map(|n| n.value()).collect())
 }
 
+/// Refuses a node transform the glTF spec forbids and no tool means: a `matrix` that is not
+/// affine (its last row must be 0, 0, 0, 1: a projective matrix has no translation, rotation
+/// and scale) and a `rotation` that is no rotation (zero or not finite, so it cannot be
+/// normalised). A rotation merely off unit length, as exporters round it, is normalised.
+pub(super) fn check_transform(
+    path: &Path,
+    index: usize,
+    node: &json::Node,
+) -> Result<(), ImportError> {
+    if let Some(m) = node.matrix {
+        // Column-major: the last row is elements 3, 7, 11 and 15.
+        let row = [m[3], m[7], m[11], m[15]];
+        let affine = row[..3].iter().all(|v| v.abs() <= 1e-6) && (row[3] - 1.0).abs() <= 1e-6;
+        if !affine {
+            return Err(ImportError::invalid(
+                path,
+                format!("nodes[{index}].matrix"),
+                format!(
+                    "its last row is {row:?}, not [0, 0, 0, 1]: a node matrix must be an affine \
+                     transform (translation, rotation and scale)"
+                ),
+            ));
+        }
+    }
+    if let Some(r) = node.rotation {
+        let q = DQuat::from_array(r.0.map(f64::from));
+        if !(q.is_finite() && q.length_squared() > 1e-12) {
+            return Err(ImportError::invalid(
+                path,
+                format!("nodes[{index}].rotation"),
+                format!(
+                    "{:?} is no rotation: it does not normalise to a unit quaternion [x, y, z, w]",
+                    r.0
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 pub(super) fn local_transform(node: &json::Node) -> DMat4 {
     if let Some(m) = node.matrix {
         return DMat4::from_cols_array(&m.map(f64::from));
@@ -99,8 +156,8 @@ pub(super) fn local_transform(node: &json::Node) -> DMat4 {
     DMat4::from_scale_rotation_translation(scale, rotation, translation)
 }
 
-/// A node's translation, rotation (normalised; identity where it is zero or not finite) and
-/// scale, each its default where absent.
+/// A node's translation, rotation (normalised; [`check_transform`] refuses one that cannot
+/// be, and here it becomes the identity) and scale, each its default where absent.
 pub(super) fn trs(node: &json::Node) -> (DVec3, DQuat, DVec3) {
     let t = node
         .translation
@@ -144,6 +201,7 @@ fn visit(
         ));
     }
     let node = &doc.root.nodes[index];
+    check_transform(&path, index, node)?;
     let world = parent * local_transform(node);
     if !world.is_finite() {
         return Err(ImportError::invalid(
@@ -153,7 +211,7 @@ fn visit(
         ));
     }
     let mesh = node.mesh.map(|m| m.value());
-    collect_views(doc, b, node, world);
+    collect_views(doc, b, index, world)?;
     let children: Vec<usize> = node.children.iter().flatten().map(|c| c.value()).collect();
     if node.skin.is_some() {
         doc.warn(format!(
@@ -189,40 +247,71 @@ fn visit(
     Ok(())
 }
 
-/// The node's perspective camera and directional light, if it has them, placed by its
-/// `world` transform: the views a render may be asked to use.
-fn collect_views(doc: &Document, b: &mut Builder, node: &json::Node, world: DMat4) {
+/// The camera and directional light of node `index`, if it has them, placed by its `world`
+/// transform: the views a render may be asked to use. A light index that names no light is
+/// refused; an orthographic camera is only listed by name (a render draws perspective ones).
+fn collect_views(
+    doc: &Document,
+    b: &mut Builder,
+    index: usize,
+    world: DMat4,
+) -> Result<(), ImportError> {
+    let node = &doc.root.nodes[index];
     let axis = |v: DVec3| world.transform_vector3(v).normalize_or_zero();
-    if let Some(c) = node.camera.and_then(|c| doc.root.cameras.get(c.value()))
-        && let Some(p) = &c.perspective
-    {
-        b.cameras.push(SceneCamera {
-            name: c
-                .name
-                .clone()
-                .or_else(|| node.name.clone())
-                .unwrap_or_else(|| format!("camera {}", b.cameras.len())),
-            node: node.name.clone(),
-            eye: world.transform_point3(DVec3::ZERO),
-            forward: axis(DVec3::NEG_Z),
-            up: axis(DVec3::Y),
-            yfov: p.yfov as f64,
-        });
+    if let Some(camera) = node.camera.map(|c| c.value()) {
+        let Some(c) = doc.root.cameras.get(camera) else {
+            return Err(ImportError::invalid(
+                &doc.path,
+                format!("nodes[{index}].camera"),
+                format!(
+                    "camera {camera} does not exist ({} cameras)",
+                    doc.root.cameras.len()
+                ),
+            ));
+        };
+        if let Some(p) = &c.perspective {
+            b.cameras.push(SceneCamera {
+                name: c
+                    .name
+                    .clone()
+                    .or_else(|| node.name.clone())
+                    .unwrap_or_else(|| format!("camera {}", b.cameras.len())),
+                node: node.name.clone(),
+                eye: world.transform_point3(DVec3::ZERO),
+                forward: axis(DVec3::NEG_Z),
+                up: axis(DVec3::Y),
+                yfov: p.yfov as f64,
+            });
+        } else {
+            b.orthographic
+                .extend(c.name.iter().chain(node.name.iter()).cloned());
+        }
     }
-    let light = node
+    let Some(light) = node
         .extensions
         .as_ref()
         .and_then(|e| e.khr_lights_punctual.as_ref())
-        .map(|l| l.light.value());
+        .map(|l| l.light.value())
+    else {
+        return Ok(());
+    };
     let lights = doc
         .root
         .extensions
         .as_ref()
-        .and_then(|e| e.khr_lights_punctual.as_ref());
-    if let Some(l) = light.and_then(|i| lights.and_then(|ls| ls.lights.get(i)))
-        && l.type_
-            == Checked::Valid(json::extensions::scene::khr_lights_punctual::Type::Directional)
-    {
+        .and_then(|e| e.khr_lights_punctual.as_ref())
+        .map_or(&[][..], |ls| &ls.lights[..]);
+    let Some(l) = lights.get(light) else {
+        return Err(ImportError::invalid(
+            &doc.path,
+            format!("nodes[{index}].extensions.KHR_lights_punctual.light"),
+            format!(
+                "light {light} does not exist (the file's KHR_lights_punctual.lights has {})",
+                lights.len()
+            ),
+        ));
+    };
+    if l.type_ == Checked::Valid(json::extensions::scene::khr_lights_punctual::Type::Directional) {
         b.suns.push(SceneSun {
             name: l
                 .name
@@ -234,6 +323,7 @@ fn collect_views(doc: &Document, b: &mut Builder, node: &json::Node, world: DMat
             color: l.color,
         });
     }
+    Ok(())
 }
 
 fn add_primitive(

@@ -239,6 +239,80 @@ fn points_and_lines_are_skipped_with_a_warning() {
 
 #[test]
 fn camera_nodes_and_directional_lights_are_placed_by_their_world_transforms() {
+    let (doc, bin) = cameras_and_lights();
+    let m = import(doc, &bin);
+    assert_eq!(m.cameras.len(), 1);
+    let c = &m.cameras[0];
+    assert_eq!(c.name, "overlook");
+    assert!(
+        (c.eye - glam::DVec3::new(100.0, 60.0, 0.0)).length() < 1e-9,
+        "{}",
+        c.eye
+    );
+    assert!(
+        (c.forward - glam::DVec3::NEG_X).length() < 1e-6,
+        "{}",
+        c.forward
+    );
+    assert!((c.up - glam::DVec3::Y).length() < 1e-6, "{}", c.up);
+    assert!((c.yfov - 0.6).abs() < 1e-6);
+    assert_eq!(m.suns.len(), 1);
+    let s = &m.suns[0];
+    assert_eq!(s.name, "sun");
+    assert!(
+        (s.towards - glam::DVec3::Y).length() < 1e-6,
+        "{}",
+        s.towards
+    );
+    assert_eq!(s.intensity, 3.0);
+}
+
+/// Nodes whose transform is none, and indices naming no camera or light, are refused by
+/// field, where they were read as the identity or skipped; an orthographic camera is kept by
+/// name only.
+#[test]
+fn impossible_nodes_are_refused_and_orthographic_cameras_named() {
+    let (good, bin) = cameras_and_lights();
+    type Break = fn(&mut Value);
+    let cases: Vec<(Break, &str)> = vec![
+        (
+            |d| d["nodes"][1]["rotation"] = json!([0.0, 0.0, 0.0, 0.0]),
+            "nodes[1].rotation",
+        ),
+        (
+            // Column-major: element 11 is the bottom row's third entry, a projection.
+            |d| d["nodes"][1]["matrix"] = json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0.5, 0, 0, 0, 1]),
+            "nodes[1].matrix",
+        ),
+        (
+            |d| d["nodes"][3]["extensions"]["KHR_lights_punctual"]["light"] = json!(5),
+            "nodes[3].extensions.KHR_lights_punctual.light",
+        ),
+        (|d| d["nodes"][2]["camera"] = json!(4), "nodes[2].camera"),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    for (break_it, needle) in cases {
+        let mut doc = good.clone();
+        break_it(&mut doc);
+        let path = write_gltf(doc, &bin, dir.path());
+        let e = load(&path).unwrap_err().to_string();
+        assert!(e.contains(needle), "{needle:?} not in {e:?}");
+    }
+    // A rotation exporters round off unit length is a rotation.
+    let mut doc = good.clone();
+    doc["nodes"][1]["rotation"] = json!([0.0, 0.0, 0.0, 0.999]);
+    load(&write_gltf(doc, &bin, dir.path())).unwrap();
+    let mut doc = good;
+    doc["cameras"][0] = json!({ "type": "orthographic", "name": "plan",
+        "orthographic": { "xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0 } });
+    let m = load(&write_gltf(doc, &bin, dir.path())).unwrap();
+    assert!(m.cameras.is_empty());
+    assert_eq!(m.orthographic, ["plan"]);
+}
+
+/// A tetrahedron under a moved parent with a turned camera, a directional light shining down
+/// and a point light.
+fn cameras_and_lights() -> (Value, Vec<u8>) {
     let (mut bin, mut views) = (vec![], vec![]);
     let v = view(&mut bin, &mut views, &f32s(TETRA.as_flattened()));
     let h = std::f32::consts::FRAC_1_SQRT_2;
@@ -265,31 +339,7 @@ fn camera_nodes_and_directional_lights_are_placed_by_their_world_transforms() {
         "accessors": [{ "bufferView": v, "componentType": 5126, "count": 12, "type": "VEC3" }],
         "bufferViews": views,
     });
-    let m = import(doc, &bin);
-    assert_eq!(m.cameras.len(), 1);
-    let c = &m.cameras[0];
-    assert_eq!(c.name, "overlook");
-    assert!(
-        (c.eye - glam::DVec3::new(100.0, 60.0, 0.0)).length() < 1e-9,
-        "{}",
-        c.eye
-    );
-    assert!(
-        (c.forward - glam::DVec3::NEG_X).length() < 1e-6,
-        "{}",
-        c.forward
-    );
-    assert!((c.up - glam::DVec3::Y).length() < 1e-6, "{}", c.up);
-    assert!((c.yfov - 0.6).abs() < 1e-6);
-    assert_eq!(m.suns.len(), 1);
-    let s = &m.suns[0];
-    assert_eq!(s.name, "sun");
-    assert!(
-        (s.towards - glam::DVec3::Y).length() < 1e-6,
-        "{}",
-        s.towards
-    );
-    assert_eq!(s.intensity, 3.0);
+    (doc, bin)
 }
 
 /// Writes `doc` with `bin` as a data URI into `dir`/`name` (a `.gltf`).
@@ -411,6 +461,20 @@ fn an_animated_camera_follows_linear_step_and_spherical_keys_through_its_parents
         .unwrap_err()
         .to_string();
     assert!(e.contains("drone") && e.contains("flyer"), "{e}");
+    // An orthographic camera asked for by name is told apart from a missing one.
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    doc["nodes"][0]["camera"] = json!(1);
+    doc["nodes"][0]["name"] = json!("map");
+    doc["cameras"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({ "type": "orthographic",
+        "orthographic": { "xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0 } }));
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let e = super::load_camera_animation(&path, Some("map"), &limits)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("\"map\" is orthographic"), "{e}");
 }
 
 #[test]
@@ -501,6 +565,32 @@ fn broken_camera_animations_are_refused_naming_the_field() {
         (
             |d| d["animations"] = json!([]),
             "no animation moves a camera",
+        ),
+        (
+            // Key times as integers: read, they would be whole seconds no exporter meant.
+            |d| d["accessors"][0]["componentType"] = json!(5125),
+            "animations[0].samplers[0].input: key times are UNSIGNED_INT, not FLOAT",
+        ),
+        (
+            |d| d["accessors"][2]["componentType"] = json!(5123),
+            "animations[0].samplers[0].output",
+        ),
+        (
+            // The rotation keys read from zeros: [0, 0, 0, 0] is no rotation.
+            |d| d["accessors"][4]["bufferView"] = json!(3),
+            "animations[0].samplers[1].output: rotation 0",
+        ),
+        (
+            |d| d["nodes"][1]["children"] = json!([0]),
+            "nodes[1].children: the node hierarchy is cyclic",
+        ),
+        (
+            |d| d["nodes"][0]["children"] = json!([1, 6]),
+            "nodes[0].children: node 6 does not exist",
+        ),
+        (
+            |d| d["nodes"][0]["rotation"] = json!([0, 0, 0, 0]),
+            "nodes[0].rotation",
         ),
     ];
     for (break_it, needle) in cases {

@@ -24,12 +24,14 @@ pub enum CameraChoice<'a> {
 }
 
 /// The camera `choice` asks for, `width` x `height` pixels; `fov` (degrees) overrides the
-/// glTF camera's and the default; `cameras` are the glTF's camera nodes. Errors name the flag.
+/// glTF camera's and the default; `cameras` are the glTF's perspective camera nodes and
+/// `orthographic` the names its orthographic cameras answer to. Errors name the flag.
 pub fn camera(
     choice: CameraChoice,
     fov: Option<f64>,
     (width, height): (u32, u32),
     cameras: &[SceneCamera],
+    orthographic: &[String],
 ) -> Result<Camera, String> {
     let degrees = fov.unwrap_or(DEFAULT_FOV);
     match choice {
@@ -47,6 +49,12 @@ pub fn camera(
                 .find(|c| c.name == name)
                 .or_else(|| cameras.iter().find(|c| c.node.as_deref() == Some(name)));
             let Some(c) = found else {
+                if orthographic.iter().any(|o| o == name) {
+                    return Err(format!(
+                        "--camera {name:?} is an orthographic camera: texel render draws \
+                         perspective cameras only"
+                    ));
+                }
                 // Each camera once (nodes may share one), with its node where that is named
                 // otherwise.
                 let mut names: Vec<String> = Vec::new();

@@ -193,6 +193,7 @@ pub fn load(
     Ok(Model {
         mesh,
         cameras: vec![],
+        orthographic: vec![],
         suns: vec![],
         sources: vec![source],
         warnings: raster.notes,
