@@ -63,10 +63,7 @@ pub(crate) fn read(
     check_size(file, width as u64, height as u64, limits)?;
     let mut notes = vec![];
     let geo = georeference(file, &mut d, options, &mut notes)?;
-    let nodata = d
-        .get_tag_ascii_string(Tag::Unknown(GDAL_NODATA))
-        .ok()
-        .and_then(|s| s.trim().trim_end_matches('\0').parse::<f64>().ok());
+    let nodata = no_data(file, &mut d)?;
     let samples = match d.read_image().map_err(bad)? {
         DecodingResult::U8(v) => Samples::Integer(v.into_iter().map(u16::from).collect(), 255),
         DecodingResult::U16(v) => Samples::Integer(v, 65535),
@@ -91,6 +88,30 @@ pub(crate) fn read(
         samples,
         geo,
         notes,
+    })
+}
+
+/// The GDAL_NODATA value, where the tag is present. A value that is no number is refused:
+/// the file says some samples are holes, and which they are cannot be known. "nan" is a
+/// number here (GDAL writes it for float rasters), and NaN samples are refused as not finite.
+fn no_data(file: &Path, d: &mut Decoder<Cursor<&[u8]>>) -> Result<Option<f64>, HeightmapError> {
+    const FIELD: &str = "GDAL_NODATA (42113)";
+    let Some(value) = d
+        .find_tag(Tag::Unknown(GDAL_NODATA))
+        .map_err(|e| error(file, FIELD, e))?
+    else {
+        return Ok(None);
+    };
+    let text = value
+        .into_string()
+        .map_err(|e| error(file, FIELD, format!("not ASCII text: {e}")))?;
+    let trimmed = text.trim().trim_end_matches('\0').trim();
+    trimmed.parse::<f64>().map(Some).map_err(|_| {
+        error(
+            file,
+            FIELD,
+            format!("{trimmed:?} is not a number, so which samples are holes is unknown"),
+        )
     })
 }
 
@@ -119,17 +140,18 @@ fn refuse_nodata(
     }
 }
 
-/// The GeoKeys stored in the directory itself (`TIFFTagLocation` 0), by id.
-fn geokeys(directory: &[u16]) -> Vec<(u16, u16)> {
-    let count = directory.get(3).copied().unwrap_or(0) as usize;
-    directory
-        .get(4..)
-        .unwrap_or(&[])
-        .chunks_exact(4)
-        .take(count)
-        .filter(|k| k[1] == 0)
-        .map(|k| (k[0], k[3]))
-        .collect()
+/// The GeoKeys stored in the directory itself (`TIFFTagLocation` 0), by id; `None` when the
+/// directory is shorter than its header (4 shorts) and the key count it declares (4 shorts
+/// each) need.
+fn geokeys(directory: &[u16]) -> Option<Vec<(u16, u16)>> {
+    let count = *directory.get(3)? as usize;
+    let keys = directory.get(4..4 + 4 * count)?;
+    Some(
+        keys.chunks_exact(4)
+            .filter(|k| k[1] == 0)
+            .map(|k| (k[0], k[3]))
+            .collect(),
+    )
 }
 
 fn unit_name(code: u16) -> &'static str {
@@ -171,7 +193,21 @@ fn georeference(
         .map(|v| v.into_u16_vec())
         .transpose()
         .map_err(|e| error(file, KEYS, e))?
-        .map(|k| geokeys(&k))
+        .map(|k| {
+            geokeys(&k).ok_or_else(|| {
+                error(
+                    file,
+                    KEYS,
+                    format!(
+                        "{} shorts cannot hold the header and the {} keys it declares (4 \
+                         shorts each)",
+                        k.len(),
+                        k.get(3).map_or("?".to_string(), |c| c.to_string())
+                    ),
+                )
+            })
+        })
+        .transpose()?
         .unwrap_or_default();
     let key = |id: u16| keys.iter().find(|k| k.0 == id).map(|k| k.1);
     let vertical = key(VERTICAL_UNITS);

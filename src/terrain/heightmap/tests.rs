@@ -209,27 +209,69 @@ fn geotiff_float_takes_spacing_from_its_tags_pixel_is_area() {
 }
 
 /// A DEM's no-data value (GDAL_NODATA) is refused where a sample holds it, naming the pixel;
-/// a file that declares one and has none loads.
+/// a file that declares one and has none loads; a no-data value that is no number is refused.
 #[test]
 fn geotiff_no_data_samples_are_refused_by_pixel() {
     let dir = tempfile::tempdir().unwrap();
-    let write = |name: &str, heights: &[f32]| {
+    let write_with = |name: &str, heights: &[f32], nodata: &str| {
         let path = dir.path().join(name);
         let file = std::fs::File::create(&path).unwrap();
         let mut enc = TiffEncoder::new(file).unwrap();
         let mut img = enc.new_image::<colortype::Gray32Float>(4, 3).unwrap();
         img.encoder()
-            .write_tag(Tag::Unknown(42113), "-9999")
+            .write_tag(Tag::Unknown(42113), nodata)
             .unwrap();
         img.write_data(heights).unwrap();
         path
     };
+    let write = |name: &str, heights: &[f32]| write_with(name, heights, "-9999");
     let mut heights: Vec<f32> = (0..12).map(|k| 250.0 + k as f32).collect();
     let size = opts(Some([30.0, 20.0]), None);
     load_file(&write("whole.tif", &heights), &size).unwrap();
     heights[6] = -9999.0;
     let e = refusal(&write("hole.tif", &heights), &size);
     for needle in ["hole.tif", "column 2, row 1", "GDAL_NODATA", "-9999"] {
+        assert!(e.contains(needle), "{needle} missing from {e}");
+    }
+    heights[6] = 256.0;
+    let e = refusal(&write_with("word.tif", &heights, "none"), &size);
+    for needle in [
+        "word.tif",
+        "GDAL_NODATA (42113)",
+        "\"none\" is not a number",
+    ] {
+        assert!(e.contains(needle), "{needle} missing from {e}");
+    }
+    // GDAL writes "nan" for a float raster's no-data: a number, held by no finite sample.
+    load_file(&write_with("nan.tif", &heights, "nan"), &size).unwrap();
+}
+
+/// A GeoKey directory shorter than the keys its header declares is refused, not read short.
+#[test]
+fn geotiff_key_directory_shorter_than_its_count_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("keys.tif");
+    let file = std::fs::File::create(&path).unwrap();
+    let mut enc = TiffEncoder::new(file).unwrap();
+    let mut img = enc.new_image::<colortype::Gray32Float>(2, 2).unwrap();
+    img.encoder()
+        .write_tag(Tag::ModelPixelScaleTag, &[1.0f64, 1.0, 0.0][..])
+        .unwrap();
+    // The header declares 3 keys; one follows.
+    img.encoder()
+        .write_tag(
+            Tag::GeoKeyDirectoryTag,
+            &[1u16, 1, 0, 3, 3076, 0, 1, 9002][..],
+        )
+        .unwrap();
+    img.write_data(&[1.0f32; 4][..]).unwrap();
+    let e = refusal(&path, &HeightmapOptions::default());
+    for needle in [
+        "keys.tif",
+        "GeoKeyDirectoryTag (34735)",
+        "8 shorts",
+        "3 keys",
+    ] {
         assert!(e.contains(needle), "{needle} missing from {e}");
     }
 }
