@@ -808,8 +808,9 @@ pub struct ExportArgs {
     /// The forest (.instances); its texels, their models and its terrain are found relative
     /// to it.
     pub instances: PathBuf,
-    /// A glTF 2.0 binary placing each species' source model once per tree
-    /// (EXT_mesh_gpu_instancing), the models copied in whole.
+    /// A glTF 2.0 placing each species' source model once per tree
+    /// (EXT_mesh_gpu_instancing), the models copied in whole: binary (.glb), or for a name
+    /// ending .gltf a JSON text with its buffer inline (base64).
     #[arg(short, long, value_name = "FILE.glb")]
     pub output: Option<PathBuf>,
     /// Also put the terrain the forest was placed on into the glTF.

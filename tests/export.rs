@@ -31,6 +31,21 @@ fn read_glb(path: &Path) -> (Value, Vec<u8>) {
     (json, bin)
 }
 
+/// The JSON of a `.gltf` text and its one buffer, decoded from its base64 data URI.
+fn read_gltf_text(path: &Path) -> (Value, Vec<u8>) {
+    use base64::Engine as _;
+    let json: Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    let uri = json["buffers"][0]["uri"].as_str().unwrap();
+    let data = uri
+        .strip_prefix("data:application/octet-stream;base64,")
+        .unwrap();
+    let bin = base64::engine::general_purpose::STANDARD
+        .decode(data)
+        .unwrap();
+    assert_eq!(json["buffers"][0]["byteLength"], bin.len());
+    (json, bin)
+}
+
 /// The elements of a float accessor, `width` floats each.
 fn floats(json: &Value, bin: &[u8], accessor: u64, width: usize) -> Vec<Vec<f32>> {
     let a = &json["accessors"][accessor as usize];
@@ -203,6 +218,25 @@ fn exports_instances_where_the_mesh_renderer_draws_the_trees_and_tables_of_them(
     assert!(o.status.success(), "{}", stderr(&o));
     let checked = check_instances(d, &d.join("out/forest.glb"));
     assert!(checked >= 6, "{checked} trees checked");
+
+    // Named .gltf, the same document as JSON text, its buffer inline as a data URI: the GLB's
+    // JSON with that URI added, and its binary chunk.
+    let o = run(
+        &[
+            "export",
+            "forest.instances",
+            "-o",
+            "out/forest.gltf",
+            "--with-terrain",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (mut text, inline) = read_gltf_text(&d.join("out/forest.gltf"));
+    let (json, bin) = read_glb(&d.join("out/forest.glb"));
+    assert_eq!(inline, bin);
+    text["buffers"][0].as_object_mut().unwrap().remove("uri");
+    assert_eq!(text, json);
 
     // The terrain rides along as a plain mesh; the images are embedded.
     let (json, _) = read_glb(&d.join("out/forest.glb"));

@@ -1,5 +1,5 @@
-//! `texel export`: `.instances` -> a glTF 2.0 binary of instanced tree models, and tables of
-//! the trees (CSV, JSON).
+//! `texel export`: `.instances` -> a glTF 2.0 (`.glb`, or `.gltf` text) of instanced tree
+//! models, and tables of the trees (CSV, JSON).
 
 use std::time::Instant;
 
@@ -39,7 +39,11 @@ pub fn run(args: &ExportArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     let mut summary = Vec::new();
     if let Some(id) = glb_out {
         let mut warnings = Vec::new();
-        let bytes = export::glb(&mut inputs, &mut warnings)?;
+        let container = args
+            .output
+            .as_deref()
+            .map_or(export::Container::Glb, export::Container::for_path);
+        let bytes = export::gltf(&mut inputs, container, &mut warnings)?;
         for w in &warnings {
             super::warn(w);
         }

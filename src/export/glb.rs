@@ -75,7 +75,51 @@ impl Gltf {
 
     /// The binary glTF of everything pushed, with one scene whose roots are `roots`; `None`
     /// if it would pass the 4 GiB a GLB's 32-bit lengths can describe.
-    pub fn into_glb(mut self, generator: &str, roots: &[usize]) -> Option<Vec<u8>> {
+    pub fn into_glb(self, generator: &str, roots: &[usize]) -> Option<Vec<u8>> {
+        let (root, bin) = self.into_root(generator, roots);
+        let mut text = serde_json::to_vec(&Value::Object(root)).expect("JSON values serialise");
+        while !text.len().is_multiple_of(4) {
+            text.push(b' ');
+        }
+        let mut chunks = vec![(JSON_CHUNK, text)];
+        if !bin.is_empty() {
+            chunks.push((BIN_CHUNK, bin));
+        }
+        let total = 12 + chunks.iter().map(|(_, c)| 8 + c.len()).sum::<usize>();
+        let total_u32 = u32::try_from(total).ok()?;
+        let mut out = Vec::with_capacity(total);
+        out.extend(GLB_MAGIC.to_le_bytes());
+        out.extend(2u32.to_le_bytes());
+        out.extend(total_u32.to_le_bytes());
+        for (kind, data) in chunks {
+            // Each chunk is shorter than the total, which fits.
+            out.extend((data.len() as u32).to_le_bytes());
+            out.extend(kind.to_le_bytes());
+            out.extend(data);
+        }
+        Some(out)
+    }
+
+    /// The same document as a `.gltf` text: the JSON the GLB holds, its buffer inline as a
+    /// base64 data URI (one self-contained file, as a `.glb` is).
+    pub fn into_text(self, generator: &str, roots: &[usize]) -> Vec<u8> {
+        use base64::Engine as _;
+        let (mut root, bin) = self.into_root(generator, roots);
+        if let Some(Value::Array(buffers)) = root.get_mut("buffers") {
+            buffers[0]["uri"] = json!(format!(
+                "data:application/octet-stream;base64,{}",
+                base64::engine::general_purpose::STANDARD.encode(&bin)
+            ));
+        }
+        serde_json::to_vec(&Value::Object(root)).expect("JSON values serialise")
+    }
+
+    /// The document's JSON root (one buffer, without a URI) and that buffer, padded to 4 bytes.
+    fn into_root(
+        mut self,
+        generator: &str,
+        roots: &[usize],
+    ) -> (serde_json::Map<String, Value>, Vec<u8>) {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
@@ -118,27 +162,7 @@ impl Gltf {
                 root.insert(name.into(), json!(set));
             }
         }
-        let mut text = serde_json::to_vec(&Value::Object(root)).expect("JSON values serialise");
-        while !text.len().is_multiple_of(4) {
-            text.push(b' ');
-        }
-        let mut chunks = vec![(JSON_CHUNK, text)];
-        if !self.bin.is_empty() {
-            chunks.push((BIN_CHUNK, self.bin));
-        }
-        let total = 12 + chunks.iter().map(|(_, c)| 8 + c.len()).sum::<usize>();
-        let total_u32 = u32::try_from(total).ok()?;
-        let mut out = Vec::with_capacity(total);
-        out.extend(GLB_MAGIC.to_le_bytes());
-        out.extend(2u32.to_le_bytes());
-        out.extend(total_u32.to_le_bytes());
-        for (kind, data) in chunks {
-            // Each chunk is shorter than the total, which fits.
-            out.extend((data.len() as u32).to_le_bytes());
-            out.extend(kind.to_le_bytes());
-            out.extend(data);
-        }
-        Some(out)
+        (root, self.bin)
     }
 }
 

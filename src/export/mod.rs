@@ -1,6 +1,6 @@
-//! `texel export`: a placed forest for other tools. A glTF 2.0 binary that places each
-//! species' source model once per tree with `EXT_mesh_gpu_instancing`, and tables of the trees
-//! (CSV, JSON).
+//! `texel export`: a placed forest for other tools. A glTF 2.0 (binary, or text with its
+//! buffer inline) that places each species' source model once per tree with
+//! `EXT_mesh_gpu_instancing`, and tables of the trees (CSV, JSON).
 //!
 //! The models are the ones the mesh render method draws (the species' main texel's first
 //! recorded source, checked against its SHA-256), placed by the renderer's own transform
@@ -84,10 +84,33 @@ fn check_trs(
     })
 }
 
-/// The binary glTF of the loaded forest: per species with trees, a node whose children are
-/// its model's meshes, each instanced once per tree; the terrain beside them where loaded.
-/// Warnings about what was left out are added to `warnings`.
-pub fn glb(inputs: &mut Inputs, warnings: &mut Vec<String>) -> Result<Vec<u8>, ExportError> {
+/// How the glTF is packed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Container {
+    /// Binary glTF (`.glb`): the JSON and one binary chunk.
+    Glb,
+    /// A `.gltf` JSON text, its one buffer inline as a base64 data URI (a third larger).
+    Text,
+}
+
+impl Container {
+    /// What a file name asks for: `.gltf` (any case) the text, anything else the binary.
+    pub fn for_path(path: &std::path::Path) -> Container {
+        match path.extension() {
+            Some(e) if e.eq_ignore_ascii_case("gltf") => Container::Text,
+            _ => Container::Glb,
+        }
+    }
+}
+
+/// The glTF of the loaded forest, packed as `container` says: per species with trees, a node
+/// whose children are its model's meshes, each instanced once per tree; the terrain beside
+/// them where loaded. Warnings about what was left out are added to `warnings`.
+pub fn gltf(
+    inputs: &mut Inputs,
+    container: Container,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<u8>, ExportError> {
     let mut out = Gltf::default();
     let mut roots = Vec::new();
     let forest = &inputs.forest;
@@ -172,8 +195,12 @@ pub fn glb(inputs: &mut Inputs, warnings: &mut Vec<String>) -> Result<Vec<u8>, E
         warnings.extend(model.warnings().iter().cloned());
     }
     let generator = concat!("texel-forest ", env!("CARGO_PKG_VERSION"));
-    out.into_glb(generator, &roots)
-        .ok_or_else(|| ExportError::TooLarge(inputs.forest.instances.len()))
+    match container {
+        Container::Glb => out
+            .into_glb(generator, &roots)
+            .ok_or_else(|| ExportError::TooLarge(inputs.forest.instances.len())),
+        Container::Text => Ok(out.into_text(generator, &roots)),
+    }
 }
 
 #[cfg(test)]
