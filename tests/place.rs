@@ -624,6 +624,14 @@ fn nothing_grows_below_the_sea_or_outside_a_species_elevation_band() {
         .map(|p| p.position[1])
         .fold(f64::INFINITY, f64::min);
     assert!(lowest >= 300.0 - 0.005, "a tree stands at {lowest} m");
+    // A sea above every summit empties the forest, and the warning blames the flag.
+    let o = place_on_mountain(dir.path(), &["--sea-level", "1e9"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("--sea-level 1000000000 m lies above all the ground"),
+        "{err}"
+    );
 
     // An elevation band holds at each tree's exact ground, not only on the raster.
     species_variant(dir.path(), "high.json", |s| {

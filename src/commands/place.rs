@@ -46,13 +46,18 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
         cell: args.cell,
         sea_level: args.sea_level,
     };
-    // Placement's errors name the flag or the species setting at fault.
+    // Placement's errors name the flag or the species setting at fault; a region too large
+    // to sample is the terrain's, named.
     let placement = place::place(
         &inputs.terrain,
         &inputs.species,
         &inputs.model_heights,
         &settings,
-    )?;
+    )
+    .map_err(|e| match e {
+        place::PlaceError::Sampling(_) => anyhow::anyhow!("{}: {e}", args.terrain.display()),
+        other => other.into(),
+    })?;
     limits.check_trees(placement.instances.len() as u64, "the forest's tree count")?;
     if placement.truncated && args.max_count.is_some() {
         super::warn(&format!(
@@ -60,7 +65,7 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
             settings.max_count
         ));
     }
-    if let Some(why) = place::diagnosis::diagnosis(&placement, &inputs.species) {
+    if let Some(why) = place::diagnosis::diagnosis(&placement, &inputs.species, args.sea_level) {
         super::warn(&why);
     }
     let file = place::inputs::forest_file(&inputs, placement, args.seed, args.max_count, &out_dir);

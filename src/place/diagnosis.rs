@@ -8,7 +8,11 @@ use crate::terrain::survey;
 /// habitats do not fit this terrain (a coarse DEM's slopes and wetness differ from a fine
 /// one's): what the terrain offers and what each species asks for, as a warning to print;
 /// `None` when the forest looks as a species file meant it to.
-pub fn diagnosis(forest: &Placement, species: &SpeciesFile) -> Option<String> {
+pub fn diagnosis(
+    forest: &Placement,
+    species: &SpeciesFile,
+    sea_level: Option<f64>,
+) -> Option<String> {
     let n = forest.instances.len();
     let mut counts = vec![0usize; species.species.len()];
     for p in &forest.instances {
@@ -26,8 +30,27 @@ pub fn diagnosis(forest: &Placement, species: &SpeciesFile) -> Option<String> {
         Some((species, &forest.suitability)),
     );
     let suited = s.species.iter().any(|f| f.suitable_share > 0.0);
-    let why = if n == 0 && !suited {
-        "no ground in the region suits any species: the forest is empty".to_string()
+    // The ground --sea-level leaves dry, of the raster's cells that have terrain.
+    let heights = || forest.raster.height.iter().filter(|h| h.is_finite());
+    let dry = sea_level.map(|sea| {
+        let ground = heights().count().max(1);
+        heights().filter(|&&h| f64::from(h) >= sea).count() as f64 / ground as f64
+    });
+    let why = if let (0, false, Some(sea), Some(0.0)) = (n, suited, sea_level, dry) {
+        let top = heights().fold(f32::NEG_INFINITY, |a, &h| a.max(h));
+        format!(
+            "--sea-level {sea} m lies above all the ground (its highest point is {top:.1} m): \
+             the forest is empty"
+        )
+    } else if n == 0 && !suited {
+        let flooded = match (sea_level, dry) {
+            (Some(sea), Some(d)) if d < 1.0 => format!(
+                " (--sea-level {sea} m floods {:.0}% of it)",
+                100.0 * (1.0 - d)
+            ),
+            _ => String::new(),
+        };
+        format!("no ground in the region suits any species{flooded}: the forest is empty")
     } else if n == 0 {
         let r = forest.region;
         format!(

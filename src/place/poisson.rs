@@ -42,9 +42,16 @@ pub struct Disc {
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum PoissonError {
     #[error(
-        "the region needs {cells} background cells for a smallest radius of {r_min} m; narrow it with --region"
+        "the region, {width:.0} m x {depth:.0} m, needs {cells} background cells for a smallest \
+         radius of {r_min:.2} m (at most {MAX_CELLS}); narrow it with --region, or check the \
+         terrain's units"
     )]
-    TooLarge { cells: u64, r_min: f64 },
+    TooLarge {
+        cells: u64,
+        r_min: f64,
+        width: f64,
+        depth: f64,
+    },
 }
 
 /// Largest background grid (cells) over the whole region: 12 bytes each.
@@ -71,6 +78,8 @@ pub fn sample<T: Send>(
         return Err(PoissonError::TooLarge {
             cells: cells as u64,
             r_min,
+            width: x1 - x0,
+            depth: z1 - z0,
         });
     }
     let height = (BAND * r_max).max(4.0 * r_max);
