@@ -90,10 +90,31 @@ fn place_and_render_on_a_heightmap_without_repeating_the_flags() {
     args.extend(view);
     let o = run(&args, d);
     assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
     assert_eq!(
         std::fs::read(d.join("a.exr")).unwrap(),
         std::fs::read(d.join("b.exr")).unwrap()
     );
+    // Converted with other flags it is other ground, and the render says so (still drawing).
+    for (size, range, needle) in [
+        (
+            "--terrain-size=500,500",
+            RANGE,
+            "does not cover the forest's region",
+        ),
+        (SIZE, "--height-range=0,60", "but the trees stand from"),
+    ] {
+        let mut args = vec!["render", "forest.instances", "-o", "c.exr", &terrain_flag];
+        args.extend([size, range]);
+        args.extend(view);
+        let o = run(&args, d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        assert!(
+            err.contains("warning: --terrain") && err.contains(needle),
+            "{needle:?} not in {err}"
+        );
+    }
     // The flags without --terrain would be ignored: refused.
     let mut args = vec!["render", "forest.instances", "-o", "c.exr", SIZE];
     args.extend(view);

@@ -83,6 +83,15 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         },
         limits: *limits,
     })?;
+    if let Some(t) = &args.terrain
+        && let Some(why) = loaded.terrain_mismatch()
+    {
+        super::warn(&format!(
+            "--terrain {}: {why}: it is not the ground the forest was placed on, so trees will \
+             float or be buried",
+            t.display()
+        ));
+    }
     let mut method = args
         .method
         .unwrap_or_else(|| match loaded.without_meshes.take() {
@@ -410,8 +419,14 @@ fn camera(args: &RenderArgs, scene: &LoadedScene, views: &import::Model) -> anyh
             CameraChoice::Frame { lo, hi }
         }
     };
-    let camera = view::camera(choice, args.fov, (args.width, args.height), &views.cameras)
-        .map_err(|e| anyhow::anyhow!(e))?;
+    let camera = view::camera(
+        choice,
+        args.fov,
+        (args.width, args.height),
+        &views.cameras,
+        &views.orthographic,
+    )
+    .map_err(|e| anyhow::anyhow!(e))?;
     warn_underground(scene, &camera);
     Ok(camera)
 }

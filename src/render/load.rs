@@ -435,6 +435,48 @@ impl LoadedScene {
         )
     }
 
+    /// Why the terrain looks like another than the one the forest was placed on, if it does
+    /// (for a `--terrain` given in place of the recorded one): it does not reach over the
+    /// forest's region, or the trees' bases lie above its highest point or below its lowest.
+    /// A finer or larger terrain of the same ground passes.
+    pub fn terrain_mismatch(&self) -> Option<String> {
+        let positions = &self.terrain.mesh.positions;
+        let (lo, hi) = positions.iter().fold(
+            (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+        let r = self.forest.info.region;
+        // A metre of slack, and a thousandth of the region, for rounding and re-meshing.
+        let slack = 1.0 + 1e-3 * (r[2] - r[0]).max(r[3] - r[1]);
+        if positions.is_empty()
+            || lo.x > r[0] + slack
+            || lo.z > r[1] + slack
+            || hi.x < r[2] - slack
+            || hi.z < r[3] - slack
+        {
+            return Some(format!(
+                "it spans x {:.1} to {:.1}, z {:.1} to {:.1} m, which does not cover the \
+                 forest's region, x {:.1} to {:.1}, z {:.1} to {:.1} m",
+                lo.x, hi.x, lo.z, hi.z, r[0], r[2], r[1], r[3]
+            ));
+        }
+        let (y0, y1) = self
+            .forest
+            .instances
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.position[1]), b.max(p.position[1]))
+            });
+        (y0 < lo.y - slack || y1 > hi.y + slack).then(|| {
+            format!(
+                "its heights run from {:.1} to {:.1} m, but the trees stand from {y0:.1} to \
+                 {y1:.1} m",
+                lo.y, hi.y
+            )
+        })
+    }
+
     /// Height of the terrain's surface above (x, z), if any.
     pub fn ground_height(&self, x: f64, z: f64) -> Option<f64> {
         crate::terrain::Terrain::surface_height(&self.terrain.mesh, x, z)
