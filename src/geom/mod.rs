@@ -23,6 +23,15 @@ pub struct Ray {
     pub dir: Vec3,
 }
 
+/// The unit direction of `v`, or zero where it has none (zero or not finite). A vector whose
+/// squared length would overflow f64 (components beyond 1e154) is scaled down first, so a far
+/// target still gives a direction; others are not, so that their directions keep their bits.
+pub fn direction(v: glam::DVec3) -> glam::DVec3 {
+    let largest = v.abs().max_element();
+    let v = if largest > 1e150 { v / largest } else { v };
+    v.normalize_or_zero()
+}
+
 /// The eight corners of the box `lo..hi`: corner `k` takes `hi` on axis `a` where bit `a` of
 /// `k` is set (x fastest).
 pub fn box_corners<T: Copy>(lo: [T; 3], hi: [T; 3]) -> [[T; 3]; 8] {
@@ -38,4 +47,24 @@ pub fn sphere_lattice(n: usize) -> impl Iterator<Item = Vec3> {
         let phi = i as f32 * 2.399_963; // the golden angle, radians
         Vec3::new(r * phi.cos(), y, r * phi.sin())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::DVec3;
+
+    /// A direction too long to square still has a direction; a short one keeps its bits.
+    #[test]
+    fn directions_of_vectors_beyond_f64s_square_are_found() {
+        let far = super::direction(DVec3::new(1e200, 0.0, -1e200));
+        let expected = DVec3::new(1.0, 0.0, -1.0).normalize();
+        assert!((far - expected).length() < 1e-15, "{far}");
+        let v = DVec3::new(3.0, 4.0, 12.0);
+        assert_eq!(super::direction(v), v.normalize());
+        assert_eq!(super::direction(DVec3::ZERO), DVec3::ZERO);
+        assert_eq!(
+            super::direction(DVec3::new(f64::INFINITY, 0.0, 0.0)),
+            DVec3::ZERO
+        );
+    }
 }

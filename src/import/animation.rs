@@ -170,7 +170,7 @@ impl CameraAnimation {
             .chain
             .iter()
             .fold(DMat4::IDENTITY, |m, n| m * n.transform(time));
-        let axis = |v: DVec3| world.transform_vector3(v).normalize_or_zero();
+        let axis = |v: DVec3| crate::geom::direction(world.transform_vector3(v));
         SceneCamera {
             name: self.name.clone(),
             node: None,

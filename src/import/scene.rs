@@ -257,7 +257,7 @@ fn collect_views(
     world: DMat4,
 ) -> Result<(), ImportError> {
     let node = &doc.root.nodes[index];
-    let axis = |v: DVec3| world.transform_vector3(v).normalize_or_zero();
+    let axis = |v: DVec3| crate::geom::direction(world.transform_vector3(v));
     if let Some(camera) = node.camera.map(|c| c.value()) {
         let Some(c) = doc.root.cameras.get(camera) else {
             return Err(ImportError::invalid(

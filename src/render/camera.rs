@@ -77,12 +77,7 @@ impl Camera {
                 "the camera's eye {eye} and target {target} are too far apart to look along"
             ));
         }
-        // The squared length of a difference beyond 1e154 overflows f64 and the direction
-        // would read as none: such a one is scaled down first (others are not, so that their
-        // cameras keep their bits).
-        let largest = d.abs().max_element();
-        let d = if largest > 1e150 { d / largest } else { d };
-        let forward = d.normalize_or_zero();
+        let forward = crate::geom::direction(d);
         if forward == DVec3::ZERO || !forward.is_finite() {
             return Err("the camera's eye and target coincide".into());
         }
@@ -119,7 +114,7 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Camera, String> {
-        if forward.normalize_or_zero() == DVec3::ZERO {
+        if crate::geom::direction(forward) == DVec3::ZERO {
             return Err(
                 "the camera has no viewing direction: its eye and target coincide (or lie too far apart to tell a direction), or its node's transform scales it to nothing (or beyond f64)"
                     .into(),

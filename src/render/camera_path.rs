@@ -259,7 +259,7 @@ impl Keyframes {
         let keys = &self.keys;
         let pose = |eye: DVec3, target: DVec3, fov: Option<f64>| Pose {
             eye,
-            forward: (target - eye).normalize_or_zero(),
+            forward: crate::geom::direction(target - eye),
             up: DVec3::Y,
             yfov: fov.map(f64::to_radians),
         };
