@@ -181,7 +181,34 @@ impl ExrLayer {
     /// The `worldToCamera` and `worldToNDC` attributes, where the file has them.
     pub(crate) fn camera_matrices(&self) -> (Option<[f32; 16]>, Option<[f32; 16]>) {
         let a = &self.layer.attributes;
-        (a.world_to_camera, a.world_to_normalized_device)
+        (
+            a.world_to_camera
+                .or_else(|| self.double_matrix("worldToCamera")),
+            a.world_to_normalized_device
+                .or_else(|| self.double_matrix("worldToNDC")),
+        )
+    }
+
+    /// The attribute `name` where it is a double-precision matrix (OpenEXR's `m44d`, which
+    /// some writers use for the camera; the `exr` crate reads only `m44f` by name), rounded
+    /// to single precision as the renderer's own are.
+    fn double_matrix(&self, name: &str) -> Option<[f32; 16]> {
+        let value = self
+            .layer
+            .attributes
+            .other
+            .iter()
+            .find(|(k, _)| k.to_string() == name)?
+            .1;
+        let exr::meta::attribute::AttributeValue::Custom { kind, bytes } = value else {
+            return None;
+        };
+        if kind.to_string() != "m44d" || bytes.len() != 128 {
+            return None;
+        }
+        Some(std::array::from_fn(|i| {
+            f64::from_le_bytes(bytes[8 * i..8 * i + 8].try_into().expect("8 bytes")) as f32
+        }))
     }
 
     /// The display window (the full frame NDC spans): its top-left corner and size.
@@ -247,8 +274,9 @@ pub struct Metrics {
     pub max_at: [usize; 2],
 }
 
-/// What `compare` finds over a set of pixels.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+/// What `compare` finds over a set of pixels. As JSON, the metrics of a set with no finite
+/// pixel are `null` (zeros would read as a perfect match), as `--temporal` writes them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Comparison {
     pub pixels: usize,
     /// Pixels where either image holds a NaN or an infinity; left out of the metrics.
@@ -260,6 +288,30 @@ pub struct Comparison {
     pub mean_ratio: [Option<f64>; 3],
     /// The same for alpha: coverage bias (under 1, the image lets more through).
     pub alpha_ratio: Option<f64>,
+}
+
+impl Serialize for Comparison {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Json<'a> {
+            pixels: usize,
+            non_finite: usize,
+            rgb: Option<&'a Metrics>,
+            alpha: Option<&'a Metrics>,
+            mean_ratio: [Option<f64>; 3],
+            alpha_ratio: Option<f64>,
+        }
+        let measured = self.pixels > self.non_finite;
+        Json {
+            pixels: self.pixels,
+            non_finite: self.non_finite,
+            rgb: measured.then_some(&self.rgb),
+            alpha: measured.then_some(&self.alpha),
+            mean_ratio: self.mean_ratio,
+            alpha_ratio: self.alpha_ratio,
+        }
+        .serialize(serializer)
+    }
 }
 
 impl Comparison {
@@ -583,5 +635,13 @@ mod tests {
             text.contains("inside the mask: 0 pixels") && text.contains("no pixels to measure")
         );
         assert!(!text.contains("rmse"), "{text}");
+        let json = serde_json::to_value(compare(&a, &b, |_| false)).unwrap();
+        assert_eq!(
+            (json["rgb"].is_null(), json["alpha"].is_null()),
+            (true, true)
+        );
+        assert_eq!(json["pixels"], 0);
+        let json = serde_json::to_value(compare(&a, &b, |_| true)).unwrap();
+        assert_eq!(json["rgb"]["max_at"], serde_json::json!([0, 0]));
     }
 }

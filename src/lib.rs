@@ -20,6 +20,7 @@ pub mod hex;
 pub mod import;
 pub mod input;
 pub mod inspect;
+pub mod json_file;
 pub mod limits;
 pub mod mesh_tracer;
 pub mod number;

@@ -346,12 +346,7 @@ impl SpeciesFile {
 
     /// Parses and validates; errors are (JSON path, problem).
     pub fn parse(bytes: &[u8]) -> Result<SpeciesFile, (String, String)> {
-        let de = &mut serde_json::Deserializer::from_slice(bytes);
-        let file: SpeciesFile = serde_path_to_error::deserialize(de).map_err(|e| {
-            let path = e.path().to_string();
-            let inner = e.into_inner().to_string();
-            (if path == "." { String::new() } else { path }, inner)
-        })?;
+        let file: SpeciesFile = crate::json_file::parse(bytes)?;
         file.validate()?;
         Ok(file)
     }
@@ -512,6 +507,17 @@ pub(crate) mod tests {
         let mut v: serde_json::Value = serde_json::from_str(MINIMAL).unwrap();
         edit(&mut v);
         SpeciesFile::parse(&serde_json::to_vec(&v).unwrap()).unwrap_err()
+    }
+
+    /// A second document after the first (a paste gone wrong) is refused, not ignored.
+    #[test]
+    fn anything_after_the_document_is_refused() {
+        let twice = format!("{MINIMAL}\n{{\"format\": \"bogus\"}}");
+        let (field, why) = SpeciesFile::parse(twice.as_bytes()).unwrap_err();
+        assert!(
+            field.is_empty() && why.contains("trailing characters"),
+            "{why}"
+        );
     }
 
     #[test]

@@ -911,6 +911,32 @@ mod tests {
             e.contains("singular.exr") && e.contains("cannot be inverted"),
             "{e}"
         );
+        // Matrices in double precision (OpenEXR's m44d) are the camera's too. The exr crate
+        // writes no m44d under the standard names: written under names of the same length,
+        // then renamed in the file's bytes.
+        let double = |m: [f32; 16]| AttributeValue::Custom {
+            kind: Text::from("m44d"),
+            bytes: m.iter().flat_map(|&v| f64::from(v).to_le_bytes()).collect(),
+        };
+        let mut attributes = LayerAttributes::default();
+        let standins = [
+            ("worldToCamerQ", "worldToCamera", c.world_to_camera()),
+            ("worldToNDQ", "worldToNDC", c.world_to_ndc()),
+        ];
+        for (standin, _, m) in standins {
+            attributes.other.insert(Text::from(standin), double(m));
+        }
+        let doubles = save("m44d.exr", &["R", "G", "B", "A", "Z"], attributes);
+        let mut bytes = std::fs::read(&doubles).unwrap();
+        for (standin, name, _) in standins {
+            let at = bytes
+                .windows(standin.len())
+                .position(|w| w == standin.as_bytes())
+                .unwrap();
+            bytes[at..at + name.len()].copy_from_slice(name.as_bytes());
+        }
+        std::fs::write(&doubles, bytes).unwrap();
+        measure_files(&[good.clone(), doubles], Mask::ALL, 0.05, &limits).unwrap();
         let small = camera(DVec3::ZERO, DVec3::NEG_Z);
         let small = Camera { width: 8, ..small };
         let small = write(d, "small.exr", &plane().render(&small, everywhere), &small);

@@ -192,6 +192,40 @@ fn a_valid_tiny_model_bakes() {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
+/// Two crossed vertical quads, a billboard tree: seen edge-on from above, face-on from the
+/// sides. The transmittance fit cannot hold both in an isotropic volume and empties the
+/// texture; the bake says so and what to do, and occupancy keeps the quads without a word.
+#[test]
+fn a_texture_that_loses_its_models_silhouette_is_warned_about() {
+    let quads: Vec<[f32; 3]> = [
+        [[-2.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 6.0, 0.0]],
+        [[-2.0, 0.0, 0.0], [2.0, 6.0, 0.0], [-2.0, 6.0, 0.0]],
+        [[0.0, 0.0, -2.0], [0.0, 0.0, 2.0], [0.0, 6.0, 2.0]],
+        [[0.0, 0.0, -2.0], [0.0, 6.0, 2.0], [0.0, 6.0, -2.0]],
+    ]
+    .concat();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("x.gltf"), tiny_gltf(&quads, 4, |_| {})).unwrap();
+    let bake = |density: &str| {
+        let a = ["bake", "x.gltf", "-o", "x.texel", "--resolution", "16"];
+        let o = run(&[&a[..], &["--density", density]].concat(), dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let err = bake("transmittance");
+    for needle in [
+        "warning: ",
+        "x.gltf",
+        "along x",
+        "along z",
+        "--density occupancy",
+    ] {
+        assert!(err.contains(needle), "{needle:?} not in {err}");
+    }
+    let err = bake("occupancy");
+    assert!(!err.contains("warning"), "{err}");
+}
+
 #[test]
 fn bad_gltf_inputs_give_one_clear_error_and_no_output() {
     assert_bake_fails(
@@ -239,6 +273,21 @@ fn bad_gltf_inputs_give_one_clear_error_and_no_output() {
         d["nodes"] = json!([{ "mesh": 0, "children": [1] }, { "children": [0] }])
     });
     assert_bake_fails("cycle.gltf", &cycle, &["cyclic"]);
+    // What glTF forbids and a reader could only guess at: an empty accessor, a triangle list
+    // cut short, a negative alpha cutoff.
+    let empty = tiny_gltf(&TETRA, 4, |d| d["accessors"][0]["count"] = json!(0));
+    assert_bake_fails(
+        "empty.gltf",
+        &empty,
+        &["accessors[0].count", "at least one"],
+    );
+    let cut = tiny_gltf(&TETRA, 4, |d| d["accessors"][0]["count"] = json!(11));
+    assert_bake_fails("cut.gltf", &cut, &["POSITION", "11 vertices"]);
+    let cutoff = tiny_gltf(&TETRA, 4, |d| {
+        d["materials"] = json!([{ "alphaMode": "MASK", "alphaCutoff": -1 }]);
+        d["meshes"][0]["primitives"][0]["material"] = json!(0);
+    });
+    assert_bake_fails("cutoff.gltf", &cutoff, &["materials[0].alphaCutoff"]);
     let remote = tiny_gltf(&TETRA, 4, |d| {
         d["buffers"][0]["uri"] = json!("https://example.com/a.bin")
     });

@@ -143,6 +143,44 @@ pub fn bake_model(
     Ok(texel)
 }
 
+/// What a baked texture lost of its model's silhouette, if it lost much: for each axis where
+/// the model blocks at least 2% of the view, the texture's finest level must block at least
+/// half as much. An isotropic volume cannot always: flat cards seen edge-on along one axis
+/// (a crossed-quad billboard) ask for empty cells there and full ones along the others, and
+/// the transmittance fit, which honours every view, can empty the texture. The words say what
+/// to do instead.
+pub fn lost_silhouette(texel: &Texel) -> Option<String> {
+    const AXES: [&str; 3] = ["x", "y", "z"];
+    let lost: Vec<String> = (0..3)
+        .filter_map(|a| {
+            let mesh = texel.info.mesh_coverage[a];
+            let d = texel.column_depths(0, a);
+            let texture = d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len().max(1) as f64;
+            (mesh >= 0.02 && texture < 0.5 * mesh).then(|| {
+                format!(
+                    "{texture:.3} of the view along {} where the model blocks {mesh:.3}",
+                    AXES[a]
+                )
+            })
+        })
+        .collect();
+    if lost.is_empty() {
+        return None;
+    }
+    let advice = match texel.info.density_model {
+        DensityModel::Transmittance => {
+            "an isotropic volume cannot hold this model's views at once (flat cards seen \
+             edge-on along one axis and face-on along another, as a crossed-quad billboard); \
+             --density occupancy keeps its surfaces"
+        }
+        DensityModel::Occupancy => "a finer --resolution, or a --gamma, may keep more of it",
+    };
+    Some(format!(
+        "the texture blocks only {}: {advice}",
+        lost.join(", and ")
+    ))
+}
+
 /// Bakes `mesh` into a texture that records no sources ([`bake_model`] records them): for
 /// meshes made in memory, and for measuring the bake alone.
 pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {

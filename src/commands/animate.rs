@@ -56,12 +56,16 @@ pub fn run(args: &AnimateArgs, limits: &Limits, quiet: bool) -> anyhow::Result<(
             _ => (w, h),
         };
         bytes_held += 3 * u64::from(kept_w) * u64::from(kept_h);
+        // Decoding holds up to 8 bytes a pixel (16-bit RGBA), then the 3 of its RGB copy.
         check_memory(
-            bytes_held + 3 * u64::from(w) * u64::from(h),
+            bytes_held + 11 * u64::from(w) * u64::from(h),
             &format!("{} frames of {kept_w}x{kept_h}", frames.len() + 1),
         )?;
         reader =
             image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png);
+        // Pixels and memory are judged above, by --max-pixels and what the machine has; the
+        // decoder's own fixed allowance (512 MB) would refuse a frame they allow.
+        reader.no_limits();
         let frame = reader
             .decode()
             .with_context(|| format!("{}: cannot decode", path.display()))?

@@ -59,6 +59,9 @@ pub fn run(args: &BakeArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> 
         .with_context(|| args.input.display().to_string())?;
     let baked = bake::bake_model(&model, &settings, &super::directory_of(&args.output))
         .with_context(|| args.input.display().to_string())?;
+    if let Some(why) = bake::lost_silhouette(&baked) {
+        super::warn(&format!("{}: {why}", args.input.display()));
+    }
 
     let bytes = texel::encode(&baked).with_context(|| args.output.display().to_string())?;
     let size = bytes.len();

@@ -175,6 +175,13 @@ pub(super) fn read(doc: &mut Document, index: usize, field: &str) -> Result<Valu
         }
     };
     let count = accessor.count.0;
+    if count == 0 {
+        return Err(ImportError::invalid(
+            &path,
+            format!("{here}.count"),
+            "0: an accessor holds at least one element (glTF's minimum is 1)",
+        ));
+    }
     if count > MAX_COUNT {
         return Err(ImportError::unsupported(
             &path,

@@ -9,7 +9,7 @@ use json::animation::{Interpolation, Property};
 use json::validation::Checked;
 
 use super::document::Document;
-use super::scene::{MAX_DEPTH, check_transform, local_transform, scene_roots, trs};
+use super::scene::{MAX_DEPTH, camera_of, check_transform, local_transform, scene_roots, trs};
 use super::{ImportError, SceneCamera, accessor};
 use crate::limits::Limits;
 use std::path::Path;
@@ -352,16 +352,7 @@ fn camera_chains(doc: &Document) -> Result<Vec<(String, f64, Vec<usize>)>, Impor
             ));
         };
         check_transform(&doc.path, index, node)?;
-        let camera = match node.camera.map(|c| c.value()) {
-            Some(c) if c >= root.cameras.len() => {
-                return Err(ImportError::invalid(
-                    &doc.path,
-                    format!("nodes[{index}].camera"),
-                    format!("camera {c} does not exist ({} cameras)", root.cameras.len()),
-                ));
-            }
-            c => c.map(|c| &root.cameras[c]),
-        };
+        let camera = camera_of(doc, index)?;
         if let Some(c) = camera
             && let Some(p) = &c.perspective
         {

@@ -70,9 +70,36 @@ pub(super) fn flatten(doc: &mut Document) -> Result<Flattened, ImportError> {
 }
 
 /// The root nodes of the default scene: `scene`, else the first scene, else (a file with no
-/// scenes) every node that is nobody's child.
+/// scenes) every node that is nobody's child; each once, in order.
+///
+/// A node with two parents is refused here, for every walk of the hierarchy: glTF's nodes
+/// form disjoint trees, and a hierarchy that shares children (each of 60 nodes listing the
+/// next twice) has 2^60 paths from its root, which a walk would follow until memory or
+/// patience ran out. With one parent each and no cycle (the walks refuse those), a node is
+/// reached once per root above it, at most 257 times.
 pub(super) fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
     let root = &doc.root;
+    let mut parent: Vec<Option<usize>> = vec![None; root.nodes.len()];
+    for (p, node) in root.nodes.iter().enumerate() {
+        for child in node.children.iter().flatten() {
+            let c = child.value();
+            match parent.get_mut(c) {
+                Some(Some(first)) => {
+                    return Err(ImportError::invalid(
+                        &doc.path,
+                        format!("nodes[{p}].children"),
+                        format!(
+                            "node {c} is already a child of nodes[{first}]: a glTF node has at \
+                             most one parent"
+                        ),
+                    ));
+                }
+                Some(slot) => *slot = Some(p),
+                // A missing child is refused by the walk that meets it, naming its place.
+                None => {}
+            }
+        }
+    }
     if let (Some(scene), true) = (root.scene, root.scenes.is_empty()) {
         return Err(ImportError::invalid(
             &doc.path,
@@ -84,15 +111,9 @@ pub(super) fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
         ));
     }
     if root.scenes.is_empty() {
-        let mut is_child = vec![false; root.nodes.len()];
-        for node in &root.nodes {
-            for child in node.children.iter().flatten() {
-                if let Some(flag) = is_child.get_mut(child.value()) {
-                    *flag = true;
-                }
-            }
-        }
-        return Ok((0..root.nodes.len()).filter(|&i| !is_child[i]).collect());
+        return Ok((0..root.nodes.len())
+            .filter(|&i| parent[i].is_none())
+            .collect());
     }
     let scene = root.scene.map_or(0, |s| s.value());
     let Some(scene) = root.scenes.get(scene) else {
@@ -105,7 +126,19 @@ pub(super) fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
             ),
         ));
     };
-    Ok(scene.nodes.iter().map(|n| n.value()).collect())
+    // A root listed twice would be drawn twice over itself. (One that does not exist is
+    // kept, for the walk to refuse by its place.)
+    let mut listed = vec![false; root.nodes.len()];
+    Ok(scene
+        .nodes
+        .iter()
+        .map(|n| n.value())
+        .filter(|&n| {
+            listed
+                .get_mut(n)
+                .is_none_or(|seen| !std::mem::replace(seen, true))
+        })
+        .collect())
 }
 
 /// Refuses a node transform the glTF spec forbids and no tool means: a `matrix` that is not
@@ -247,6 +280,26 @@ fn visit(
     Ok(())
 }
 
+/// The camera node `index` holds, if any; one its index does not name is refused.
+pub(super) fn camera_of(
+    doc: &Document,
+    index: usize,
+) -> Result<Option<&json::Camera>, ImportError> {
+    let Some(camera) = doc.root.nodes[index].camera.map(|c| c.value()) else {
+        return Ok(None);
+    };
+    doc.root.cameras.get(camera).map(Some).ok_or_else(|| {
+        ImportError::invalid(
+            &doc.path,
+            format!("nodes[{index}].camera"),
+            format!(
+                "camera {camera} does not exist ({} cameras)",
+                doc.root.cameras.len()
+            ),
+        )
+    })
+}
+
 /// The camera and directional light of node `index`, if it has them, placed by its `world`
 /// transform: the views a render may be asked to use. A light index that names no light is
 /// refused; an orthographic camera is only listed by name (a render draws perspective ones).
@@ -258,17 +311,7 @@ fn collect_views(
 ) -> Result<(), ImportError> {
     let node = &doc.root.nodes[index];
     let axis = |v: DVec3| crate::geom::direction(world.transform_vector3(v));
-    if let Some(camera) = node.camera.map(|c| c.value()) {
-        let Some(c) = doc.root.cameras.get(camera) else {
-            return Err(ImportError::invalid(
-                &doc.path,
-                format!("nodes[{index}].camera"),
-                format!(
-                    "camera {camera} does not exist ({} cameras)",
-                    doc.root.cameras.len()
-                ),
-            ));
-        };
+    if let Some(c) = camera_of(doc, index)? {
         if let Some(p) = &c.perspective {
             b.cameras.push(SceneCamera {
                 name: c
@@ -387,6 +430,22 @@ fn add_primitive(
     let colors = vertex_colors(doc, &primitive, n, &field)?;
 
     let indices = vertex_indices(doc, &primitive, n, &field)?;
+    if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
+        // glTF: a triangle list's vertex count is a multiple of 3; one that is not is cut or
+        // misaligned data, whose leftover would be dropped without a word.
+        return Err(ImportError::invalid(
+            &doc.path,
+            if primitive.indices.is_some() {
+                format!("{field}.indices")
+            } else {
+                format!("{field}.attributes.POSITION")
+            },
+            format!(
+                "{} vertices is no whole number of triangles (TRIANGLES takes 3 each)",
+                indices.len()
+            ),
+        ));
+    }
     let corners = triangulate(mode, &indices);
     // Instancing multiplies what a small file holds: check the scene's size before growing it.
     let limits = doc.limits;
@@ -627,10 +686,16 @@ fn convert_material(
             "not finite",
         ));
     }
+    let cutoff = m.alpha_cutoff.map_or(0.5, |c| c.0);
+    if !(cutoff >= 0.0 && cutoff.is_finite()) {
+        return Err(ImportError::invalid(
+            &path,
+            format!("{here}.alphaCutoff"),
+            format!("{cutoff} is not a cutoff from 0 up (glTF's minimum is 0)"),
+        ));
+    }
     let alpha_mode = match m.alpha_mode {
-        Checked::Valid(json::material::AlphaMode::Mask) => AlphaMode::Mask {
-            cutoff: m.alpha_cutoff.map_or(0.5, |c| c.0),
-        },
+        Checked::Valid(json::material::AlphaMode::Mask) => AlphaMode::Mask { cutoff },
         Checked::Valid(json::material::AlphaMode::Blend) => AlphaMode::Blend,
         _ => AlphaMode::Opaque,
     };

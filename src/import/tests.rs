@@ -289,6 +289,11 @@ fn impossible_nodes_are_refused_and_orthographic_cameras_named() {
             "nodes[3].extensions.KHR_lights_punctual.light",
         ),
         (|d| d["nodes"][2]["camera"] = json!(4), "nodes[2].camera"),
+        (
+            // Shared children make a walk's paths exponential in depth: refused at once.
+            |d| d["nodes"][1]["children"] = json!([2]),
+            "nodes[1].children: node 2 is already a child of nodes[0]",
+        ),
     ];
     let dir = tempfile::tempdir().unwrap();
     for (break_it, needle) in cases {

@@ -182,12 +182,7 @@ impl Keyframes {
 
     /// Parses and checks; errors are (JSON path, problem).
     pub fn parse(bytes: &[u8]) -> Result<Keyframes, (String, String)> {
-        let de = &mut serde_json::Deserializer::from_slice(bytes);
-        let file: File = serde_path_to_error::deserialize(de).map_err(|e| {
-            let path = e.path().to_string();
-            let inner = e.into_inner().to_string();
-            (if path == "." { String::new() } else { path }, inner)
-        })?;
+        let file: File = crate::json_file::parse(bytes)?;
         let bad = |field: String, message: String| Err((field, message));
         if file.format != FORMAT {
             return bad(
