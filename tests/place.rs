@@ -353,7 +353,27 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
         ],
         dir.path(),
     );
-    assert_error(&o, &["tree radii range", "spacing"]);
+    assert_error(&o, &["tiny.json", "tree radii range", "spacing"]);
+    // Heights no forest can store as scales of the model are the species file's fault.
+    let mut tall = base.clone();
+    tall["species"][1]["height"] = serde_json::json!({ "min": 1e300, "max": 1e300 });
+    std::fs::write(
+        dir.path().join("tall.json"),
+        serde_json::to_vec(&tall).unwrap(),
+    )
+    .unwrap();
+    let o = run(
+        &[
+            "place",
+            terrain.to_str().unwrap(),
+            "--species",
+            "tall.json",
+            "-o",
+            "tall.instances",
+        ],
+        dir.path(),
+    );
+    assert_error(&o, &["tall.json: species[1].height", "1e300", "2^16"]);
     let o = place_on_mountain(dir.path(), &["--region", "5000,5000,6000,6000"]);
     assert_error(&o, &["--region", "outside the terrain"]);
     // A malformed value is a usage error, caught before anything is read.

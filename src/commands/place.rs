@@ -47,7 +47,7 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
         sea_level: args.sea_level,
     };
     // Placement's errors name the flag or the species setting at fault; a region too large
-    // to sample is the terrain's, named.
+    // to sample is the terrain's, and radii it cannot mix the species file's, each named.
     let placement = place::place(
         &inputs.terrain,
         &inputs.species,
@@ -56,6 +56,7 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
     )
     .map_err(|e| match e {
         place::PlaceError::Sampling(_) => anyhow::anyhow!("{}: {e}", args.terrain.display()),
+        place::PlaceError::Species(_) => anyhow::anyhow!("{}: {e}", args.species.display()),
         other => other.into(),
     })?;
     limits.check_trees(placement.instances.len() as u64, "the forest's tree count")?;

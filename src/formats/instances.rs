@@ -21,6 +21,9 @@ pub const HEIGHTMAP_MINOR: u16 = 1;
 pub const QUANTUM: f64 = 0.01;
 /// Scale codes per doubling: a stored scale is `2^((v - 32768) / SCALE_STEPS)`.
 pub const SCALE_STEPS: f64 = 2048.0;
+/// The range of scales the codes hold: 2^-16 up to (not including) 2^16.
+pub const MIN_SCALE: f64 = 1.0 / 65536.0;
+pub const MAX_SCALE: f64 = 65536.0;
 
 /// One tree, as a forest file records it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use super::{Placement, quantisation_origin};
-use crate::formats::instances::{self, ForestInfo, SpeciesRecord};
+use crate::formats::instances::{self, ForestInfo, MAX_SCALE, MIN_SCALE, SpeciesRecord};
 use crate::formats::{container, texel};
 use crate::limits::Limits;
 use crate::provenance::{self, SourceFile};
@@ -80,7 +80,40 @@ pub fn load(
             Some(rel) => Some(read("leafless_texel", rel)?.0),
             None => None,
         };
+        // A tree's scale, its height over its model's, must fit the forest's scale codes.
         let height = info.model_max[1] - info.model_min[1];
+        let (lo, hi) = (s.height.min / height, s.height.max / height);
+        if !(height > 0.0 && lo >= MIN_SCALE && hi < MAX_SCALE) {
+            use crate::number::{number, shortest};
+            let (field, why) = if height > 0.0 && height.is_finite() {
+                let (h0, h1) = (shortest(s.height.min), shortest(s.height.max));
+                (
+                    "height",
+                    format!(
+                        "trees {h0} to {h1} m tall from a model {} units tall are scales {} to \
+                         {}; a forest stores scales from 2^-16 to 2^16 (check the height's \
+                         units, and the model's)",
+                        number(height, 3),
+                        number(lo, 6),
+                        number(hi, 6)
+                    ),
+                )
+            } else {
+                (
+                    "texel",
+                    format!(
+                        "{} records a model {} units tall (model_min.y to model_max.y): a tree \
+                         needs a positive height",
+                        species_dir.join(&s.texel).display(),
+                        shortest(height)
+                    ),
+                )
+            };
+            return Err(InputsError::File {
+                what: format!("{name}: species[{i}].{field}"),
+                source: why.into(),
+            });
+        }
         model_heights.push(height);
         records.push(species_record(s, texel_source, leafless, height));
     }

@@ -78,6 +78,9 @@ pub struct Placement {
 pub enum PlaceError {
     #[error("{0}")]
     Settings(String),
+    /// The species file asks for what placement cannot do (the caller names the file).
+    #[error("{0}")]
+    Species(String),
     #[error(transparent)]
     Sampling(#[from] poisson::PoissonError),
 }
@@ -179,8 +182,8 @@ pub fn place(
     settings: &PlaceSettings,
 ) -> Result<Placement, PlaceError> {
     let (r_min, r_max) = radius_range(species);
-    if r_max / r_min > MAX_RADIUS_RATIO {
-        return Err(PlaceError::Settings(format!(
+    if !(r_max / r_min <= MAX_RADIUS_RATIO) {
+        return Err(PlaceError::Species(format!(
             "tree radii range from {r_min:.2} m to {r_max:.2} m; placement needs the largest within \
              {MAX_RADIUS_RATIO} times the smallest (check the species' spacing and height)"
         )));
