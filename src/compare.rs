@@ -198,12 +198,12 @@ impl ExrLayer {
             .attributes
             .other
             .iter()
-            .find(|(k, _)| k.to_string() == name)?
+            .find(|(k, _)| *k == name)?
             .1;
         let exr::meta::attribute::AttributeValue::Custom { kind, bytes } = value else {
             return None;
         };
-        if kind.to_string() != "m44d" || bytes.len() != 128 {
+        if kind.as_slice() != b"m44d" || bytes.len() != 128 {
             return None;
         }
         Some(std::array::from_fn(|i| {

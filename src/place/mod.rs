@@ -182,7 +182,8 @@ pub fn place(
     settings: &PlaceSettings,
 ) -> Result<Placement, PlaceError> {
     let (r_min, r_max) = radius_range(species);
-    if !(r_max / r_min <= MAX_RADIUS_RATIO) {
+    // Written so that a ratio of NaN or infinite radii fails too.
+    if r_max / r_min > MAX_RADIUS_RATIO || !r_max.is_finite() {
         return Err(PlaceError::Species(format!(
             "tree radii range from {r_min:.2} m to {r_max:.2} m; placement needs the largest within \
              {MAX_RADIUS_RATIO} times the smallest (check the species' spacing and height)"
