@@ -811,7 +811,7 @@ pub struct ExportArgs {
     /// A glTF 2.0 placing each species' source model once per tree
     /// (EXT_mesh_gpu_instancing), the models copied in whole: binary (.glb), or for a name
     /// ending .gltf a JSON text with its buffer inline (base64).
-    #[arg(short, long, value_name = "FILE.glb")]
+    #[arg(short, long, value_name = "FILE.glb|FILE.gltf")]
     pub output: Option<PathBuf>,
     /// Also put the terrain the forest was placed on into the glTF.
     #[arg(long, requires = "output")]

@@ -936,7 +936,9 @@ mod tests {
             bytes[at..at + name.len()].copy_from_slice(name.as_bytes());
         }
         std::fs::write(&doubles, bytes).unwrap();
-        measure_files(&[good.clone(), doubles], Mask::ALL, 0.05, &limits).unwrap();
+        // Read as the very matrices `good` holds in m44f: the same camera, not reprojected.
+        let pair = measure_files(&[good.clone(), doubles], Mask::ALL, 0.05, &limits).unwrap();
+        assert!(!pair.pairs[0].camera_moved);
         let small = camera(DVec3::ZERO, DVec3::NEG_Z);
         let small = Camera { width: 8, ..small };
         let small = write(d, "small.exr", &plane().render(&small, everywhere), &small);

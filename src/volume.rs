@@ -691,6 +691,13 @@ impl Texel {
         s * (l.interpolate(&l.density[0], q) + l.interpolate(&l.density[1], q))
     }
 
+    /// The share of the view along `axis` the finest level blocks: the mean over its columns
+    /// of `1 - exp(-depth)` (what `bake` measures of the mesh as `mesh_coverage`).
+    pub fn texture_coverage(&self, axis: usize) -> f64 {
+        let d = self.column_depths(0, axis);
+        d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len().max(1) as f64
+    }
+
     /// Optical depth of every column of cells of `level` along `axis` (both parts), in the
     /// model's units: the silhouette the texture casts along the axis is `1 - exp(-depth)`.
     pub fn column_depths(&self, level: usize, axis: usize) -> Vec<f64> {

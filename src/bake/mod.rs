@@ -154,8 +154,7 @@ pub fn lost_silhouette(texel: &Texel) -> Option<String> {
     let lost: Vec<String> = (0..3)
         .filter_map(|a| {
             let mesh = texel.info.mesh_coverage[a];
-            let d = texel.column_depths(0, a);
-            let texture = d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len().max(1) as f64;
+            let texture = texel.texture_coverage(a);
             (mesh >= 0.02 && texture < 0.5 * mesh).then(|| {
                 format!(
                     "{texture:.3} of the view along {} where the model blocks {mesh:.3}",

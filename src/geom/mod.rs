@@ -24,11 +24,16 @@ pub struct Ray {
 }
 
 /// The unit direction of `v`, or zero where it has none (zero or not finite). A vector whose
-/// squared length would overflow f64 (components beyond 1e154) is scaled down first, so a far
-/// target still gives a direction; others are not, so that their directions keep their bits.
+/// squared length would overflow or underflow f64 (components beyond 1e154, or all below
+/// 1e-154) is scaled first, so a far target still gives a direction; others are not, so that
+/// their directions keep their bits.
 pub fn direction(v: glam::DVec3) -> glam::DVec3 {
     let largest = v.abs().max_element();
-    let v = if largest > 1e150 { v / largest } else { v };
+    let v = if largest > 1e150 || (largest > 0.0 && largest < 1e-150) {
+        v / largest
+    } else {
+        v
+    };
     v.normalize_or_zero()
 }
 
@@ -53,7 +58,8 @@ pub fn sphere_lattice(n: usize) -> impl Iterator<Item = Vec3> {
 mod tests {
     use glam::DVec3;
 
-    /// A direction too long to square still has a direction; a short one keeps its bits.
+    /// A direction too long or too short to square still has a direction; an ordinary one keeps
+    /// its bits.
     #[test]
     fn directions_of_vectors_beyond_f64s_square_are_found() {
         let far = super::direction(DVec3::new(1e200, 0.0, -1e200));
@@ -62,6 +68,7 @@ mod tests {
         let v = DVec3::new(3.0, 4.0, 12.0);
         assert_eq!(super::direction(v), v.normalize());
         assert_eq!(super::direction(DVec3::ZERO), DVec3::ZERO);
+        assert_eq!(super::direction(DVec3::new(1e-170, 0.0, 0.0)), DVec3::X);
         assert_eq!(
             super::direction(DVec3::new(f64::INFINITY, 0.0, 0.0)),
             DVec3::ZERO

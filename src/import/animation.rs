@@ -345,6 +345,7 @@ fn camera_chains(doc: &Document) -> Result<Vec<(String, f64, Vec<usize>)>, Impor
                 1 => "scene.nodes".to_string(),
                 n => format!("nodes[{}].children", chain[n - 2]),
             };
+            // (A root's place in scene.nodes is not kept; the flattening names it.)
             return Err(ImportError::invalid(
                 &doc.path,
                 field,
@@ -601,8 +602,9 @@ fn check_track(
         return Err(bad(
             "output",
             format!(
-                "rotation {k}, {:?}, is no rotation: it does not normalise to a unit \
+                "key {}'s rotation, {:?}, is no rotation: it does not normalise to a unit \
                  quaternion [x, y, z, w]",
+                k / per_key,
                 output.element(k)
             ),
         ));

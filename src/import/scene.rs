@@ -85,13 +85,15 @@ pub(super) fn scene_roots(doc: &Document) -> Result<Vec<usize>, ImportError> {
             let c = child.value();
             match parent.get_mut(c) {
                 Some(Some(first)) => {
+                    let why = if *first == p {
+                        format!("lists node {c} twice")
+                    } else {
+                        format!("node {c} is already a child of nodes[{first}]")
+                    };
                     return Err(ImportError::invalid(
                         &doc.path,
                         format!("nodes[{p}].children"),
-                        format!(
-                            "node {c} is already a child of nodes[{first}]: a glTF node has at \
-                             most one parent"
-                        ),
+                        format!("{why}: a glTF node has at most one parent"),
                     ));
                 }
                 Some(slot) => *slot = Some(p),
@@ -431,19 +433,17 @@ fn add_primitive(
 
     let indices = vertex_indices(doc, &primitive, n, &field)?;
     if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
-        // glTF: a triangle list's vertex count is a multiple of 3; one that is not is cut or
-        // misaligned data, whose leftover would be dropped without a word.
-        return Err(ImportError::invalid(
-            &doc.path,
-            if primitive.indices.is_some() {
-                format!("{field}.indices")
-            } else {
-                format!("{field}.attributes.POSITION")
-            },
-            format!(
-                "{} vertices is no whole number of triangles (TRIANGLES takes 3 each)",
-                indices.len()
-            ),
+        // glTF's validator warns of this, no more: the leftover vertices make no triangle.
+        let at = if primitive.indices.is_some() {
+            format!("{field}.indices")
+        } else {
+            format!("{field}.attributes.POSITION")
+        };
+        doc.warn(format!(
+            "{}: {at}: {} vertices is no whole number of triangles; the last {} make none",
+            doc.path.display(),
+            indices.len(),
+            indices.len() % 3
         ));
     }
     let corners = triangulate(mode, &indices);

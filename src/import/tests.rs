@@ -294,6 +294,10 @@ fn impossible_nodes_are_refused_and_orthographic_cameras_named() {
             |d| d["nodes"][1]["children"] = json!([2]),
             "nodes[1].children: node 2 is already a child of nodes[0]",
         ),
+        (
+            |d| d["nodes"][0]["children"] = json!([1, 1, 2, 3, 4]),
+            "nodes[0].children: lists node 1 twice",
+        ),
     ];
     let dir = tempfile::tempdir().unwrap();
     for (break_it, needle) in cases {
@@ -578,12 +582,12 @@ fn broken_camera_animations_are_refused_naming_the_field() {
         ),
         (
             |d| d["accessors"][2]["componentType"] = json!(5123),
-            "animations[0].samplers[0].output",
+            "animations[0].samplers[0].output: Translation values are UNSIGNED_SHORT, which glTF does not allow",
         ),
         (
             // The rotation keys read from zeros: [0, 0, 0, 0] is no rotation.
             |d| d["accessors"][4]["bufferView"] = json!(3),
-            "animations[0].samplers[1].output: rotation 0",
+            "animations[0].samplers[1].output: key 0's rotation",
         ),
         (
             |d| d["nodes"][1]["children"] = json!([0]),

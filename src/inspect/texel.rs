@@ -189,10 +189,7 @@ pub fn summarize(texel: &Texel, file: FileFacts) -> Summary {
             crate::volume::normal(g).is_none()
         })
         .count();
-    let coverage_texture = [0, 1, 2].map(|a| {
-        let d = texel.column_depths(0, a);
-        d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len() as f64
-    });
+    let coverage_texture = [0, 1, 2].map(|a| texel.texture_coverage(a));
     Summary {
         format: format!("texel 1.{}", file.minor),
         generator: info.generator.clone(),

@@ -30,8 +30,17 @@ pub fn diagnosis(
         Some((species, &forest.suitability)),
     );
     let suited = s.species.iter().any(|f| f.suitable_share > 0.0);
-    // The ground --sea-level leaves dry, of the raster's cells that have terrain.
-    let heights = || forest.raster.height.iter().filter(|h| h.is_finite());
+    // The ground --sea-level leaves dry, of the region's raster cells that have terrain (the
+    // raster reaches a topographic-position radius beyond the region).
+    let r = &forest.raster;
+    let [x0, z0, x1, z1] = forest.region;
+    let heights = || {
+        r.height.iter().enumerate().filter_map(move |(k, h)| {
+            let x = r.x0 + ((k % r.nx) as f64 + 0.5) * r.cell;
+            let z = r.z0 + ((k / r.nx) as f64 + 0.5) * r.cell;
+            (h.is_finite() && (x0..=x1).contains(&x) && (z0..=z1).contains(&z)).then_some(h)
+        })
+    };
     let dry = sea_level.map(|sea| {
         let ground = heights().count().max(1);
         heights().filter(|&&h| f64::from(h) >= sea).count() as f64 / ground as f64

@@ -116,7 +116,7 @@ impl Camera {
     ) -> Result<Camera, String> {
         if crate::geom::direction(forward) == DVec3::ZERO {
             return Err(
-                "the camera has no viewing direction: its eye and target coincide (or lie too far apart to tell a direction), or its node's transform scales it to nothing (or beyond f64)"
+                "the camera has no viewing direction: its eye and target coincide (or lie beyond f64 apart), or its node's transform scales it to nothing (or beyond f64)"
                     .into(),
             );
         }
