@@ -312,6 +312,18 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
             Box::new(|v| v["species"][0]["leafless_texel"] = serde_json::json!("species.json")),
             vec!["species[0].leafless_texel", "not a texel file"],
         ),
+        // Valid one by one, but radii placement cannot mix.
+        (
+            Box::new(|v| v["species"][2]["spacing"] = serde_json::json!(0.01)),
+            vec!["tree radii range", "spacing"],
+        ),
+        // Heights no forest can store as scales of the model.
+        (
+            Box::new(|v| {
+                v["species"][1]["height"] = serde_json::json!({ "min": 1e300, "max": 1e300 })
+            }),
+            vec!["bad.json: species[1].height", "1e300", "2^16"],
+        ),
     ];
     for (edit, needles) in cases {
         let mut v = base.clone();
@@ -334,46 +346,6 @@ fn bad_species_and_terrain_files_give_clear_errors_and_no_output() {
         assert_error(&o, &all);
         assert!(!dir.path().join("bad.instances").exists());
     }
-    let mut tiny = base.clone();
-    tiny["species"][2]["spacing"] = serde_json::json!(0.01);
-    std::fs::write(
-        dir.path().join("tiny.json"),
-        serde_json::to_vec(&tiny).unwrap(),
-    )
-    .unwrap();
-    let terrain = mountain();
-    let o = run(
-        &[
-            "place",
-            terrain.to_str().unwrap(),
-            "--species",
-            "tiny.json",
-            "-o",
-            "tiny.instances",
-        ],
-        dir.path(),
-    );
-    assert_error(&o, &["tiny.json", "tree radii range", "spacing"]);
-    // Heights no forest can store as scales of the model are the species file's fault.
-    let mut tall = base.clone();
-    tall["species"][1]["height"] = serde_json::json!({ "min": 1e300, "max": 1e300 });
-    std::fs::write(
-        dir.path().join("tall.json"),
-        serde_json::to_vec(&tall).unwrap(),
-    )
-    .unwrap();
-    let o = run(
-        &[
-            "place",
-            terrain.to_str().unwrap(),
-            "--species",
-            "tall.json",
-            "-o",
-            "tall.instances",
-        ],
-        dir.path(),
-    );
-    assert_error(&o, &["tall.json: species[1].height", "1e300", "2^16"]);
     let o = place_on_mountain(dir.path(), &["--region", "5000,5000,6000,6000"]);
     assert_error(&o, &["--region", "outside the terrain"]);
     // A malformed value is a usage error, caught before anything is read.

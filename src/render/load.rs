@@ -440,20 +440,14 @@ impl LoadedScene {
     /// forest's region, or the trees' bases lie above its highest point or below its lowest.
     /// A finer or larger terrain of the same ground passes.
     pub fn terrain_mismatch(&self) -> Option<String> {
-        let positions = &self.terrain.mesh.positions;
-        let (lo, hi) = positions.iter().fold(
-            (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        );
-        let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
         let r = self.forest.info.region;
         // A metre of slack, and a thousandth of the region, for rounding and re-meshing.
         let slack = 1.0 + 1e-3 * (r[2] - r[0]).max(r[3] - r[1]);
-        if positions.is_empty()
-            || lo.x > r[0] + slack
-            || lo.z > r[1] + slack
-            || hi.x < r[2] - slack
-            || hi.z < r[3] - slack
+        let Some((lo, hi)) = self.terrain.mesh.bounds() else {
+            return Some("it has no triangles to stand the trees on".into());
+        };
+        let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+        if lo.x > r[0] + slack || lo.z > r[1] + slack || hi.x < r[2] - slack || hi.z < r[3] - slack
         {
             return Some(format!(
                 "it spans x {:.1} to {:.1}, z {:.1} to {:.1} m, which does not cover the \
