@@ -145,10 +145,10 @@ pub fn bake_model(
 
 /// What a baked texture lost of its model's silhouette, if it lost much: for each axis where
 /// the model blocks at least 2% of the view, the texture's finest level must block at least
-/// half as much. An isotropic volume cannot always: flat cards seen edge-on along one axis
-/// (a crossed-quad billboard) ask for empty cells there and full ones along the others, and
-/// the transmittance fit, which honours every view, can empty the texture. The words say what
-/// to do instead.
+/// half as much. Occupancy with too small a `--gamma`, or too coarse a grid for cards, can
+/// fall short; the transmittance fit keeps every view that sees the model
+/// (`bake::tomography`), and this check stands guard over it. The words say what to do
+/// instead.
 pub fn lost_silhouette(texel: &Texel) -> Option<String> {
     const AXES: [&str; 3] = ["x", "y", "z"];
     let lost: Vec<String> = (0..3)
@@ -168,9 +168,8 @@ pub fn lost_silhouette(texel: &Texel) -> Option<String> {
     }
     let advice = match texel.info.density_model {
         DensityModel::Transmittance => {
-            "an isotropic volume cannot hold this model's views at once (flat cards seen \
-             edge-on along one axis and face-on along another, as a crossed-quad billboard); \
-             --density occupancy keeps its surfaces"
+            "the transmittance fit could not hold this model's views at once; --density \
+             occupancy keeps its surfaces"
         }
         DensityModel::Occupancy => "a finer --resolution, or a --gamma, may keep more of it",
     };

@@ -6,6 +6,14 @@
 //! reconstruction (as in tomography) then rescales every cell by the geometric mean of what
 //! its three columns ask for, for a few sweeps: the field stays non-negative, empty cells stay
 //! empty, and no axis is favoured over another.
+//!
+//! A column every ray crossed (target depth 0) has no say. Its cells hold what the other
+//! views saw, and an isotropic volume cannot both show that and hide it along this axis:
+//! flat cards seen edge-on, as in a crossed-quad billboard, or a leaf between this axis's
+//! rays. Its vote, the logarithm of zero, would empty those cells, and with them the views
+//! that do see the cards (a billboard baked to an empty texture). Kept, they add a line of
+//! cells to this axis's view where the mesh shows none; on the fixtures and the shared real
+//! trees each axis's coverage moves towards the mesh's, never away.
 
 use super::grid::Grid;
 
@@ -40,7 +48,7 @@ pub fn fit(grid: &Grid, sigma: &mut [f32], targets: &[Targets; 3]) {
                     for x in 0..nx {
                         let col = column([x, y, z]);
                         let (have, want) = (depth[col], target.depth[col]);
-                        if have <= 0.0 || (target.opaque[col] && have >= want) {
+                        if have <= 0.0 || want <= 0.0 || (target.opaque[col] && have >= want) {
                             continue;
                         }
                         log_ratio[x + nx * (y + ny * z)] += (want / have).ln() / 3.0;
