@@ -592,3 +592,59 @@ fn valid_but_empty_files_and_compressed_ones_get_the_right_advice() {
         &["smaller than", "metres"],
     );
 }
+
+/// A red trunk running up into a closed green crown, as low-poly trees are built: the part
+/// inside the crown is seen from nowhere, so no cell's albedo takes its red. (Each cell's
+/// colour was the mean of every surface the scan's rays crossed in it, hidden ones too: the
+/// crown's cells around the trunk came out brown where the mesh shows green.)
+#[test]
+fn a_surface_hidden_inside_a_solid_does_not_colour_the_texture() {
+    let mut b = ModelBuilder::default();
+    // Not "crown": that name reads as foliage by default, and this crown is a solid.
+    let crown = b.material(MaterialSpec {
+        name: "blob".into(),
+        color: [0.05, 0.4, 0.05, 1.0],
+        mask: None,
+    });
+    b.cuboid(crown, Vec3::new(-1.0, 1.0, -1.0), Vec3::new(1.0, 3.0, 1.0));
+    let trunk = b.material(MaterialSpec {
+        name: "trunk".into(),
+        color: [0.6, 0.05, 0.05, 1.0],
+        mask: None,
+    });
+    b.cuboid(trunk, Vec3::new(-0.3, 0.0, -0.3), Vec3::new(0.3, 2.6, 0.3));
+    let f = b.to_gltf(None, "test");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tree.glb"), builder::glb(&f.doc, &f.bin)).unwrap();
+    let o = run(
+        &["bake", "tree.glb", "-o", "t.texel", "--resolution", "16"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let t =
+        texel_forest::formats::texel::decode(&std::fs::read(dir.path().join("t.texel")).unwrap())
+            .unwrap();
+    let l = &t.levels[0];
+    let origin = t.origin();
+    let mut crown_cells = 0;
+    for z in 0..l.dims[2] {
+        for y in 0..l.dims[1] {
+            for x in 0..l.dims[0] {
+                let centre =
+                    origin + (glam::DVec3::new(x as f64, y as f64, z as f64) + 0.5) * l.cell;
+                // The crown's upper part: the trunk there is inside it, and the crown's floor,
+                // where the trunk shows, is five cells or more below.
+                if centre.y < 2.0 || l.density[0][l.index(x, y, z)] <= 0.0 {
+                    continue;
+                }
+                crown_cells += 1;
+                let [r, g, _] = l.albedo[0][l.index(x, y, z)];
+                assert!(
+                    r < 0.06 && g > 0.39,
+                    "cell ({x}, {y}, {z}) at {centre}: albedo {r}, {g}, the crown's is 0.05, 0.4"
+                );
+            }
+        }
+    }
+    assert!(crown_cells > 20, "{crown_cells} crown cells");
+}

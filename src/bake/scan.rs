@@ -2,7 +2,8 @@
 //! every fine cell centre, crosses the model; each ray's sorted surface crossings give
 //!
 //! * the transmittance of every texture cell the bundle crosses, in both directions,
-//! * the surface colour met inside each texture cell (for the albedo),
+//! * the surface colour met inside each texture cell (for the albedo), of the surfaces that
+//!   can be seen: not those inside the union of the closed parts,
 //! * the second moment of the foliage's surface normals inside each cell, each crossing
 //!   weighted by `1 / (|n_x| + |n_y| + |n_z|)`: a surface is crossed by the rays of axis `a` in
 //!   proportion to its area times `|n_a|`, so over the three axes the weights sum to the area,
@@ -73,7 +74,8 @@ pub struct AxisScan {
     /// Extinction (1/m) estimated along this axis for all surfaces (`[0]`) and wood alone
     /// (`[1]`); `None` where every ray was blocked before reaching the cell from both sides.
     pub sigma: [Vec<Option<f32>>; 2],
-    /// Sum of linear RGB over the surface crossings inside the cell: wood `[0]`, foliage `[1]`.
+    /// Sum of linear RGB over the surface crossings inside the cell that can be seen (outside
+    /// every closed part), and their count: wood `[0]`, foliage `[1]`.
     pub color_sum: [Vec<[f32; 3]>; 2],
     pub crossings: [Vec<u32>; 2],
     /// Area-weighted sums of `n n^T` (`[xx, yy, zz, xy, xz, yz]`) over the foliage crossings
@@ -237,13 +239,23 @@ fn scan_column(
             }
             _ => misses[1] += 1,
         }
+        // A surface inside the union of the closed parts (a trunk running up into a solid
+        // crown, the faces where two solids meet, a card inside a trunk) is seen from nowhere:
+        // the mesh never shows its colour, so neither does the cell's albedo. Only where the
+        // ray's windings add up (a watertight crossing) can inside be told from outside.
+        let watertight = hits.iter().map(|h| i32::from(h.winding)).sum::<i32>() == 0;
+        let mut winding = 0i32;
         for h in hits.iter() {
+            let before = winding;
+            winding += i32::from(h.winding);
             let (l, part) = (cell_of(h.t), h.is_foliage as usize);
-            let sum = &mut color_sum[part][l];
-            for c in 0..3 {
-                sum[c] += h.rgb[c];
+            if !(watertight && before != 0 && winding != 0) {
+                let sum = &mut color_sum[part][l];
+                for c in 0..3 {
+                    sum[c] += h.rgb[c];
+                }
+                crossings[part][l] += 1;
             }
-            crossings[part][l] += 1;
             if h.is_foliage {
                 let [x, y, z] = h.normal;
                 let w = 1.0 / (x.abs() + y.abs() + z.abs());
