@@ -55,7 +55,7 @@ fn texel(data: &[u8]) {
 
 /// `fuzz/fuzz_targets/instances.rs`
 fn instances(data: &[u8]) {
-    if let Ok(f) = instances::decode(data) {
+    if let Ok(f) = instances::decode_stored(data) {
         let _ = texel_forest::inspect::instances::summarize(&f, facts(data));
     }
 }

@@ -19,7 +19,7 @@ fn wrap(data: &[u8]) -> Option<Vec<u8>> {
 
 fuzz_target!(|data: &[u8]| {
     let Some(file) = wrap(data) else { return };
-    if let Ok(f) = instances::decode(&file) {
+    if let Ok(f) = instances::decode_stored(&file) {
         let facts = FileFacts {
             bytes: file.len() as u64,
             minor: 1,

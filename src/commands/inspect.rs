@@ -172,10 +172,13 @@ fn run_instances(
     let file = &args.file;
     let picture = map_output(args, picture, "a forest")?;
     let bytes = container::read_file(file)?;
-    let forest =
-        instances::decode_with(&bytes, limits).with_context(|| file.display().to_string())?;
+    let forest = instances::decode_stored_with(&bytes, limits)
+        .with_context(|| file.display().to_string())?;
+    // The file is not needed once decoded, and it can be half the size of the trees.
+    let facts = FileFacts::of(&bytes);
+    drop(bytes);
     let Some(out) = picture else {
-        let s = forest_view::summarize(&forest, FileFacts::of(&bytes));
+        let s = forest_view::summarize(&forest, facts);
         return print_summary(&s, args.json, forest_view::to_text);
     };
     // The terrain, found relative to the forest file, shades the map; a missing or changed

@@ -322,6 +322,28 @@ impl Opened<'_> {
     /// after it) that declares its content size as R, then decompresses it as a stream with a
     /// limit, never trusting the declared length for an allocation.
     pub fn payload(&self) -> Result<Vec<u8>, ContainerError> {
+        let mut payload = Vec::new();
+        self.decoder()?
+            .take(self.raw_len + 1)
+            .read_to_end(&mut payload)
+            .map_err(undecompressed)?;
+        check_decompressed(payload.len() as u64, self.raw_len)?;
+        Ok(payload)
+    }
+
+    /// Step 7 for a reader that decodes the payload a piece at a time, so that it never holds
+    /// all R bytes besides what it decodes them into: the same checks and errors as
+    /// [`Opened::payload`], the last ones when the reader calls [`PayloadStream::finish`].
+    pub fn payload_stream(&self) -> Result<PayloadStream<'_>, ContainerError> {
+        Ok(PayloadStream {
+            decoder: self.decoder()?,
+            read: 0,
+            raw_len: self.raw_len,
+        })
+    }
+
+    /// The checks of step 7 before decompression, and the decompressing stream.
+    fn decoder(&self) -> Result<zstd::stream::read::Decoder<'_, &[u8]>, ContainerError> {
         use zstd::zstd_safe;
         let frame = self.compressed;
         if !frame.starts_with(&ZSTD_MAGIC) {
@@ -357,22 +379,69 @@ impl Opened<'_> {
                 ));
             }
         }
-        let mut payload = Vec::new();
-        let decoder = zstd::stream::read::Decoder::with_buffer(frame)
+        Ok(zstd::stream::read::Decoder::with_buffer(frame)
             .map_err(|e| ContainerError::Corrupt(format!("payload: {e}")))?
-            .single_frame();
-        decoder
-            .take(self.raw_len + 1)
-            .read_to_end(&mut payload)
-            .map_err(|e| ContainerError::Corrupt(format!("payload does not decompress: {e}")))?;
-        if payload.len() as u64 != self.raw_len {
-            return Err(ContainerError::Corrupt(format!(
-                "payload decompresses to {} bytes, the header says {}",
-                payload.len(),
-                self.raw_len
-            )));
+            .single_frame())
+    }
+}
+
+fn undecompressed(e: std::io::Error) -> ContainerError {
+    ContainerError::Corrupt(format!("payload does not decompress: {e}"))
+}
+
+fn check_decompressed(len: u64, raw_len: u64) -> Result<(), ContainerError> {
+    if len != raw_len {
+        return Err(wrong_length(len, raw_len));
+    }
+    Ok(())
+}
+
+fn wrong_length(len: u64, raw_len: u64) -> ContainerError {
+    ContainerError::Corrupt(format!(
+        "payload decompresses to {len} bytes, the header says {raw_len}"
+    ))
+}
+
+/// A payload being decompressed: [`Opened::payload_stream`].
+pub struct PayloadStream<'a> {
+    decoder: zstd::stream::read::Decoder<'a, &'a [u8]>,
+    /// Bytes handed out so far.
+    read: u64,
+    raw_len: u64,
+}
+
+impl PayloadStream<'_> {
+    /// Fills `buf` with the payload's next bytes, which the caller knows are within the R
+    /// bytes; a payload that ends first is refused as [`Opened::payload`] refuses it.
+    pub fn read_exact(&mut self, mut buf: &mut [u8]) -> Result<(), ContainerError> {
+        debug_assert!(self.read + buf.len() as u64 <= self.raw_len);
+        while !buf.is_empty() {
+            match self.read_some(buf)? {
+                0 => return Err(wrong_length(self.read, self.raw_len)),
+                n => buf = &mut buf[n..],
+            }
         }
-        Ok(payload)
+        Ok(())
+    }
+
+    /// Checks that the payload ends after the R bytes read, as a complete frame.
+    pub fn finish(mut self) -> Result<(), ContainerError> {
+        // Reading on past R makes the decoder check the frame's end, and shows a longer payload.
+        self.read_some(&mut [0])?;
+        check_decompressed(self.read, self.raw_len)
+    }
+
+    fn read_some(&mut self, buf: &mut [u8]) -> Result<usize, ContainerError> {
+        loop {
+            match self.decoder.read(buf) {
+                Ok(n) => {
+                    self.read += n as u64;
+                    return Ok(n);
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(undecompressed(e)),
+            }
+        }
     }
 }
 
@@ -448,6 +517,38 @@ mod tests {
         assert!(read(&with_payload(&after, 4), MAGIC, "test", 1).is_err());
         let before = [skippable, one].concat();
         assert!(read(&with_payload(&before, 4), MAGIC, "test", 1).is_err());
+    }
+
+    /// The payload read a piece at a time, or the error that stopped it.
+    fn streamed(opened: &Opened, piece: usize) -> Result<Vec<u8>, ContainerError> {
+        let mut stream = opened.payload_stream()?;
+        let mut out = vec![0; opened.raw_len() as usize];
+        for part in out.chunks_mut(piece) {
+            stream.read_exact(part)?;
+        }
+        stream.finish()?;
+        Ok(out)
+    }
+
+    /// Streaming gives the payload, and refuses a damaged frame with `payload`'s own error.
+    #[test]
+    fn a_streamed_payload_is_the_payload_and_fails_alike() {
+        let payload: Vec<u8> = (0..3000u32).map(|i| (i * i % 251) as u8).collect();
+        let frame = zstd::bulk::compress(&payload, 9).unwrap();
+        let bytes = with_payload(&frame, 3000);
+        let opened = open(&bytes, MAGIC, "test", 1).unwrap();
+        assert_eq!(streamed(&opened, 700).unwrap(), payload);
+        let mut refused = 0;
+        for i in 0..frame.len() {
+            let mut damaged = frame.clone();
+            damaged[i] ^= 0x10;
+            let bytes = with_payload(&damaged, 3000);
+            let opened = open(&bytes, MAGIC, "test", 1).unwrap();
+            let whole = opened.payload();
+            assert_eq!(streamed(&opened, 700), whole, "flipped byte {i}");
+            refused += whole.is_err() as usize;
+        }
+        assert!(refused > 0);
     }
 
     #[test]

@@ -4,7 +4,7 @@
 
 use bincode::{Decode, Encode};
 
-use super::container::{self, ContainerError, header_config};
+use super::container::{self, ContainerError, PayloadStream, header_config};
 use crate::limits::{LimitError, Limits};
 use crate::number::shortest;
 use crate::provenance::SourceFile;
@@ -164,6 +164,64 @@ impl Forest {
     }
 }
 
+/// A forest's trees as the payload stores them, centimetres from the origin and the codes: 19
+/// bytes a tree where an [`Instance`] takes 40, for a reader that holds millions of trees
+/// only to look at them (`texel inspect`). [`Trees::get`] is the tree [`decode`] gives.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trees {
+    origin: [f64; 3],
+    /// x, y, z.
+    position: [Vec<i32>; 3],
+    species: Vec<u8>,
+    rotation: Vec<u16>,
+    scale: Vec<u16>,
+    variation: Vec<u16>,
+}
+
+impl Trees {
+    pub fn len(&self) -> usize {
+        self.species.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.species.is_empty()
+    }
+
+    pub fn species(&self, i: usize) -> u8 {
+        self.species[i]
+    }
+
+    pub fn position(&self, i: usize) -> [f64; 3] {
+        std::array::from_fn(|a| self.origin[a] + self.position[a][i] as f64 * QUANTUM)
+    }
+
+    pub fn scale(&self, i: usize) -> f32 {
+        decode_scale(self.scale[i])
+    }
+
+    pub fn get(&self, i: usize) -> Instance {
+        Instance {
+            species: self.species[i],
+            position: self.position(i),
+            rotation: decode_rotation(self.rotation[i]),
+            scale: self.scale(i),
+            variation: self.variation[i],
+        }
+    }
+
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = Instance> + '_ {
+        (0..self.len()).map(|i| self.get(i))
+    }
+}
+
+/// A forest whose trees are kept as [`Trees`] ([`decode_stored_with`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredForest {
+    pub info: ForestInfo,
+    pub trees: Trees,
+    pub heightmap: Option<HeightmapOptions>,
+}
+
 #[derive(Encode, Decode)]
 pub(crate) struct Header {
     pub(crate) info: ForestInfo,
@@ -200,10 +258,25 @@ fn push_planes(out: &mut Vec<u8>, values: &[u32], width: usize) {
     }
 }
 
-fn read_planes(bytes: &[u8], n: usize, width: usize) -> Vec<u32> {
-    (0..n)
-        .map(|i| (0..width).fold(0u32, |v, b| v | (bytes[b * n + i] as u32) << (8 * b)))
-        .collect()
+/// The payload's next column of `n` values of `T`'s width, stored as byte planes, read a slice
+/// of a plane at a time: no more of the payload is held than that slice.
+fn read_column<T>(payload: &mut PayloadStream, n: usize) -> Result<Vec<T>, ContainerError>
+where
+    T: Copy + Default + From<u8> + std::ops::Shl<usize, Output = T> + std::ops::BitOrAssign,
+{
+    const SLICE: usize = 1 << 16;
+    let mut values = vec![T::default(); n];
+    let mut bytes = vec![0; SLICE.min(n)];
+    for plane in 0..size_of::<T>() {
+        for values in values.chunks_mut(SLICE) {
+            let bytes = &mut bytes[..values.len()];
+            payload.read_exact(bytes)?;
+            for (v, &b) in values.iter_mut().zip(bytes.iter()) {
+                *v |= T::from(b) << (8 * plane);
+            }
+        }
+    }
+    Ok(values)
 }
 
 /// Scale as a u16 on a log scale: 2^((v - 32768) / 2048), 0.034% steps from 2^-16 to 2^16.
@@ -355,6 +428,26 @@ pub fn decode(bytes: &[u8]) -> Result<Forest, InstancesError> {
 /// Decodes `.instances` bytes: container, then the header (validated, the tree count checked
 /// against the payload's declared length and `limits`), and only then the payload.
 pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Forest, InstancesError> {
+    let StoredForest {
+        info,
+        trees,
+        heightmap,
+    } = decode_stored_with(bytes, limits)?;
+    Ok(Forest {
+        info,
+        instances: trees.iter().collect(),
+        heightmap,
+    })
+}
+
+/// [`decode_stored_with`] within the default [`Limits`].
+pub fn decode_stored(bytes: &[u8]) -> Result<StoredForest, InstancesError> {
+    decode_stored_with(bytes, &Limits::default())
+}
+
+/// Decodes `.instances` bytes as [`decode_with`] does (the same checks and errors), keeping
+/// the trees as [`Trees`].
+pub fn decode_stored_with(bytes: &[u8], limits: &Limits) -> Result<StoredForest, InstancesError> {
     let opened = container::open(bytes, MAGIC, "instances", MAJOR)?;
     let bad = |m: String| InstancesError::Header(m);
     let (header, used): (Header, usize) =
@@ -392,26 +485,27 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Forest, InstancesErr
         )));
     }
     limits.check_trees(header.count, "the forest's tree count")?;
-    let payload = opened.payload()?;
+    // Column by column from the decompressing stream: the decoded trees and a slice of the
+    // payload are all that is held, not the payload as well (a hostile 11 KB file can declare
+    // 16 million trees, 319 MB of payload).
     let n = header.count as usize;
-    let mut at = 0;
-    let mut take = |len: usize| {
-        let s = &payload[at..at + len];
-        at += len;
-        s
-    };
-    let mut coords = [vec![], vec![], vec![]];
+    let mut payload = opened.payload_stream()?;
+    let mut position: [Vec<i32>; 3] = Default::default();
     for axis in [0, 2, 1] {
         let mut value = 0i32;
-        coords[axis] = read_planes(take(4 * n), n, 4)
+        position[axis] = read_column::<u32>(&mut payload, n)?
             .into_iter()
             .map(|d| {
                 value = value.wrapping_add(unzigzag(d));
-                info.origin[axis] + value as f64 * QUANTUM
+                value
             })
             .collect();
     }
-    let species = take(n).to_vec();
+    let species = read_column::<u8>(&mut payload, n)?;
+    let rotation = read_column(&mut payload, n)?;
+    let scale = read_column(&mut payload, n)?;
+    let variation = read_column(&mut payload, n)?;
+    payload.finish()?;
     if let Some(i) = species
         .iter()
         .position(|&s| s as usize >= info.species.len())
@@ -422,21 +516,16 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Forest, InstancesErr
             info.species.len()
         )));
     }
-    let rotation = read_planes(take(2 * n), n, 2);
-    let scale = read_planes(take(2 * n), n, 2);
-    let variation = read_planes(take(2 * n), n, 2);
-    let instances = (0..n)
-        .map(|i| Instance {
-            species: species[i],
-            position: [coords[0][i], coords[1][i], coords[2][i]],
-            rotation: decode_rotation(rotation[i] as u16),
-            scale: decode_scale(scale[i] as u16),
-            variation: variation[i] as u16,
-        })
-        .collect();
-    Ok(Forest {
+    Ok(StoredForest {
+        trees: Trees {
+            origin: info.origin,
+            position,
+            species,
+            rotation,
+            scale,
+            variation,
+        },
         info,
-        instances,
         heightmap,
     })
 }

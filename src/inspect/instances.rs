@@ -6,7 +6,7 @@ use image::RgbImage;
 use serde::Serialize;
 
 use super::printable;
-use crate::formats::instances::Forest;
+use crate::formats::instances::StoredForest;
 use crate::hex::hex;
 use crate::number::{number, shortest};
 use crate::provenance::SourceFile;
@@ -68,9 +68,9 @@ pub struct SpeciesSummary {
     pub height_range: Option<[f64; 2]>,
 }
 
-/// Tree height (m) of an instance.
-fn height(f: &Forest, p: &crate::place::Instance) -> f64 {
-    p.scale as f64 * f.info.species[p.species as usize].model_height
+/// Tree height (m) of tree `i`.
+fn height(f: &StoredForest, i: usize) -> f64 {
+    f.trees.scale(i) as f64 * f.info.species[f.trees.species(i) as usize].model_height
 }
 
 /// Smallest distance and smallest distance-to-radius ratio over all pairs that could hold
@@ -79,32 +79,30 @@ fn height(f: &Forest, p: &crate::place::Instance) -> f64 {
 /// least its distance over the largest radius, so the reach is the larger of the best distance
 /// and the best ratio times that radius; it shrinks as better pairs are found, which keeps
 /// clustered forests fast, and coincident trees end the sweep at once.
-fn spacing(f: &Forest) -> Option<(f64, f64)> {
-    let radius =
-        |p: &crate::place::Instance| f.info.species[p.species as usize].radius(p.scale as f64);
-    let n = f.instances.len();
+fn spacing(f: &StoredForest) -> Option<(f64, f64)> {
+    let t = &f.trees;
+    let radius = |i: usize| f.info.species[t.species(i) as usize].radius(t.scale(i) as f64);
+    let n = t.len();
     if n < 2 {
         return None;
     }
-    let r_max = f.instances.iter().map(radius).fold(0.0, f64::max).max(1e-6);
-    let (x, z) = (
-        |i: usize| f.instances[i].position[0],
-        |i: usize| f.instances[i].position[2],
-    );
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| x(a).total_cmp(&x(b)));
+    let r_max = (0..n).map(radius).fold(0.0, f64::max).max(1e-6);
+    let (x, z) = (|i: usize| t.position(i)[0], |i: usize| t.position(i)[2]);
+    // u32 indices, half the memory of usize: a file holds at most 113 million trees.
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    order.sort_by(|&a, &b| x(a as usize).total_cmp(&x(b as usize)));
     // Trees within reach in x, by (z in millimetres, index).
     let key = |i: usize| ((z(i) * 1000.0).round() as i64, i);
     let mut active: std::collections::BTreeSet<(i64, usize)> = Default::default();
     let (mut distance, mut ratio) = (f64::INFINITY, f64::INFINITY);
     let mut left = 0;
-    for &i in &order {
+    for i in order.iter().map(|&i| i as usize) {
         if distance == 0.0 {
             break;
         }
         let reach = distance.max(ratio * r_max);
-        while x(order[left]) < x(i) - reach {
-            active.remove(&key(order[left]));
+        while x(order[left] as usize) < x(i) - reach {
+            active.remove(&key(order[left] as usize));
             left += 1;
         }
         let lo = if reach.is_finite() {
@@ -118,59 +116,54 @@ fn spacing(f: &Forest) -> Option<(f64, f64)> {
             i64::MAX
         };
         for &(_, j) in active.range((lo, 0)..=(hi, usize::MAX)) {
-            let (p, q) = (&f.instances[i], &f.instances[j]);
-            let d = (p.position[0] - q.position[0]).hypot(p.position[2] - q.position[2]);
+            let (p, q) = (t.position(i), t.position(j));
+            let d = (p[0] - q[0]).hypot(p[2] - q[2]);
             distance = distance.min(d);
-            ratio = ratio.min(d / radius(p).max(radius(q)));
+            ratio = ratio.min(d / radius(i).max(radius(j)));
         }
         active.insert(key(i));
     }
     Some((distance, ratio))
 }
 
-pub fn summarize(f: &Forest, file: super::FileFacts) -> ForestSummary {
+pub fn summarize(f: &StoredForest, file: super::FileFacts) -> ForestSummary {
     let file_bytes = file.bytes;
-    let n = f.instances.len();
+    let n = f.trees.len();
     let r = f.info.region;
     let hectares = (r[2] - r[0]) * (r[3] - r[1]) / 1e4;
+    // Counts and height ranges in passes over the trees: a list of the heights would add 8
+    // bytes a tree to the trees' own 19.
+    let mut counted = vec![(0, f64::INFINITY, 0.0f64); f.info.species.len()];
+    for i in 0..n {
+        let (h, c) = (height(f, i), &mut counted[f.trees.species(i) as usize]);
+        *c = (c.0 + 1, c.1.min(h), c.2.max(h));
+    }
     let species = f
         .info
         .species
         .iter()
+        .zip(&counted)
         .enumerate()
-        .map(|(i, s)| {
-            let mine: Vec<f64> = f
-                .instances
-                .iter()
-                .filter(|p| p.species as usize == i)
-                .map(|p| height(f, p))
-                .collect();
-            SpeciesSummary {
-                name: s.name.clone(),
-                trees: mine.len(),
-                per_hectare: mine.len() as f64 / hectares,
-                map_color: format!("#{}", hex(&color(i))),
-                texel: s.texel.clone(),
-                height_range: (!mine.is_empty()).then(|| {
-                    [
-                        mine.iter().copied().fold(f64::INFINITY, f64::min),
-                        mine.iter().copied().fold(0.0, f64::max),
-                    ]
-                }),
-            }
+        .map(|(i, (s, &(trees, low, high)))| SpeciesSummary {
+            name: s.name.clone(),
+            trees,
+            per_hectare: trees as f64 / hectares,
+            map_color: format!("#{}", hex(&color(i))),
+            texel: s.texel.clone(),
+            height_range: (trees > 0).then_some([low, high]),
         })
         .collect();
-    let heights: Vec<f64> = f.instances.iter().map(|p| height(f, p)).collect();
-    let (lo, hi) = (
-        heights.iter().copied().fold(f64::INFINITY, f64::min),
-        heights.iter().copied().fold(0.0, f64::max),
-    );
+    let (lo, hi) = (0..n)
+        .map(|i| height(f, i))
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), h| {
+            (lo.min(h), hi.max(h))
+        });
     let width = ((hi - lo) / 10.0).max(1e-9);
     let mut bins: Vec<(f64, f64, usize)> = (0..10)
         .map(|b| (lo + b as f64 * width, lo + (b + 1) as f64 * width, 0))
         .collect();
     if n > 0 {
-        for h in &heights {
+        for h in (0..n).map(|i| height(f, i)) {
             bins[(((h - lo) / width) as usize).min(9)].2 += 1;
         }
     } else {
@@ -317,7 +310,7 @@ pub fn to_text(s: &ForestSummary) -> String {
 /// The forest from above over its hillshaded terrain (north up), `long_side` pixels across
 /// the longer side of the region; trees are discs of 0.4 of their spacing radius in their
 /// species' colour. Without a terrain the ground is plain grey.
-pub fn map(f: &Forest, terrain: Option<&Terrain>, long_side: usize) -> RgbImage {
+pub fn map(f: &StoredForest, terrain: Option<&Terrain>, long_side: usize) -> RgbImage {
     let r = f.info.region;
     let pixel = (r[2] - r[0]).max(r[3] - r[1]) / long_side as f64;
     let (w, h) = (
@@ -346,7 +339,7 @@ pub fn map(f: &Forest, terrain: Option<&Terrain>, long_side: usize) -> RgbImage 
             img.put_pixel(x as u32, y as u32, image::Rgb(c));
         }
     }
-    for p in &f.instances {
+    for p in f.trees.iter() {
         let species = &f.info.species[p.species as usize];
         let radius = (0.4 * species.radius(p.scale as f64) / pixel).max(0.6);
         let (cx, cz) = (
@@ -384,15 +377,23 @@ pub fn map(f: &Forest, terrain: Option<&Terrain>, long_side: usize) -> RgbImage 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::formats::instances::tests::sample_forest;
+    use crate::formats::instances::{Forest, decode_stored, encode, tests};
+
+    fn sample_forest(n: usize) -> StoredForest {
+        stored(&tests::sample_forest(n))
+    }
+
+    fn stored(f: &Forest) -> StoredForest {
+        decode_stored(&encode(f).unwrap()).unwrap()
+    }
 
     #[test]
     fn a_tree_larger_than_the_map_covers_it_without_visiting_pixels_outside() {
         // Any positive finite spacing is valid: a tree's disc may be infinite, and the map
         // visits the pixels of its disc (this test never finished when it visited them all).
-        let mut f = sample_forest(1);
+        let mut f = tests::sample_forest(1);
         f.info.species[0].spacing = 1e300;
-        let img = map(&f, None, 64);
+        let img = map(&stored(&f), None, 64);
         let tree = color(0);
         let grey = map(&sample_forest(0), None, 64).get_pixel(0, 0).0;
         for p in img.pixels() {
