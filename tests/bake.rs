@@ -647,4 +647,15 @@ fn a_surface_hidden_inside_a_solid_does_not_colour_the_texture() {
         }
     }
     assert!(crown_cells > 20, "{crown_cells} crown cells");
+    // Below the crown the trunk is seen, and keeps its red.
+    let y = ((0.5 - origin.y) / l.cell) as usize;
+    let (x, z) = (
+        ((0.0 - origin.x) / l.cell) as usize,
+        ((0.0 - origin.z) / l.cell) as usize,
+    );
+    let [r, _, _] = l.albedo[0][l.index(x, y, z)];
+    assert!(
+        r > 0.4,
+        "the seen trunk's albedo red is {r}, its material's 0.6"
+    );
 }

@@ -146,7 +146,7 @@ pub fn bake_model(
 /// What a baked texture lost of its model's silhouette, if it lost much: for each axis where
 /// the model blocks at least 2% of the view, the texture's finest level must block at least
 /// half as much. Occupancy with too small a `--gamma`, or too coarse a grid for cards, can
-/// fall short; the transmittance fit keeps every view that sees the model
+/// fall short; the transmittance fit no longer empties cells that a view sees
 /// (`bake::tomography`), and this check stands guard over it. The words say what to do
 /// instead.
 pub fn lost_silhouette(texel: &Texel) -> Option<String> {

@@ -7,7 +7,7 @@
 //! its three columns ask for, for a few sweeps: the field stays non-negative, empty cells stay
 //! empty, and no axis is favoured over another.
 //!
-//! A column every ray crossed (target depth 0) has no say. Its cells hold what the other
+//! A column none of whose rays was blocked (target depth 0) has no say. Its cells hold what the other
 //! views saw, and an isotropic volume cannot both show that and hide it along this axis:
 //! flat cards seen edge-on, as in a crossed-quad billboard, or a leaf between this axis's
 //! rays. Its vote, the logarithm of zero, would empty those cells, and with them the views
