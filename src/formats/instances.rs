@@ -192,7 +192,12 @@ impl Trees {
     }
 
     pub fn position(&self, i: usize) -> [f64; 3] {
-        std::array::from_fn(|a| self.origin[a] + self.position[a][i] as f64 * QUANTUM)
+        std::array::from_fn(|a| self.coordinate(a, i))
+    }
+
+    /// One coordinate of tree `i` (0: x, 1: y, 2: z), as [`Trees::position`] gives it.
+    pub fn coordinate(&self, axis: usize, i: usize) -> f64 {
+        self.origin[axis] + self.position[axis][i] as f64 * QUANTUM
     }
 
     pub fn scale(&self, i: usize) -> f32 {
