@@ -52,6 +52,8 @@ pub mod purpose {
     /// ray.
     pub const RAY_ROULETTE: u64 = 0x7374_7261;
     pub const GROUND_LIGHT: u64 = 0x6772_6c69;
+    /// The shadow ray of a texture's solid surface ending a view ray.
+    pub const SOLID_LIGHT: u64 = 0x736f_6c69;
     /// A shadow ray's march through the textures draws from `hash3(shadow key, 0, ..)`,
     /// indexed by instance and segment, not from the shadow key itself: a tree drawn from its
     /// model lights with the view ray's own key (the mesh method's stream), and a march indexed

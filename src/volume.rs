@@ -89,7 +89,21 @@ pub struct Level {
     /// wood shows as much as in the mesh, not wherever a coarse cell mixes it with foliage
     /// (see `bake::seen`; 1 in files before texel 1.2).
     pub wood_weight: f32,
+    /// The solids per part: the fraction of each cell inside the model's thick closed parts
+    /// (`bake::solid`), drawn as opaque surfaces where the trilinear field of
+    /// `solid_wood + f solid_foliage` reaches [`SOLID_LEVEL`]. Both empty where the level has
+    /// none (every level of files before texel 1.3).
+    pub solid: [Vec<f32>; 2],
 }
+
+/// The value of the solids' trilinear field at their surface: a box-filtered half-space
+/// crosses a half exactly at its plane, so the level set of the cells' inside fractions
+/// puts a solid's surface where the mesh has it, to well within a cell.
+pub const SOLID_LEVEL: f32 = 0.5;
+
+/// The extinction (1/m) queries that sum optical depth give the inside of a solid: opaque over
+/// any step (a nanometre's depth is 1e9), finite so that sums and products stay numbers.
+pub const SOLID_EXTINCTION: f32 = 1e18;
 
 /// Whether `c` (cell units from the grid origin) lies in a grid of `dims` cells, faces
 /// included: where [`Level::trilinear`] reads, and where [`Stencils::holds`] looks.
@@ -138,6 +152,26 @@ pub fn clamped_axis(v: f32, n: usize) -> (usize, usize, f32) {
     (i, (i + 1).min(n - 1), x - i as f32)
 }
 
+/// Linear interpolation's two cells and weights along one axis of `n` cells (centres at
+/// i + 0.5) at `v`, the field 0 beyond the cells rather than clamped to the edge: a cell
+/// outside comes back as index 0 with weight 0. The solids are read so: a model touches its
+/// grid's faces, and a solid clamped to the edge would reach out to the face wherever its edge
+/// cell is half inside.
+#[inline]
+pub fn padded_axis(v: f32, n: usize) -> [(usize, f32); 2] {
+    let x = v - 0.5;
+    let i = x.floor();
+    let f = x - i;
+    let at = |j: f32, w: f32| {
+        if j >= 0.0 && j < n as f32 {
+            (j as usize, w)
+        } else {
+            (0, 0.0)
+        }
+    };
+    [at(i, 1.0 - f), at(i + 1.0, f)]
+}
+
 impl Level {
     pub fn empty(dims: [usize; 3], cell: f64) -> Level {
         let n = dims.iter().product();
@@ -151,7 +185,116 @@ impl Level {
             directional: ISOTROPIC,
             self_shadow: NO_SELF_SHADOW,
             wood_weight: 1.0,
+            solid: [Vec::new(), Vec::new()],
         }
+    }
+
+    /// Whether this level draws any solid.
+    #[inline]
+    pub fn has_solid(&self) -> bool {
+        !self.solid[0].is_empty()
+    }
+
+    /// Whether cell `i` holds anything a query reads: density of either part, or solid.
+    #[inline]
+    pub fn holds_cell(&self, i: usize) -> bool {
+        self.density[0][i] != 0.0
+            || self.density[1][i] != 0.0
+            || (self.has_solid() && (self.solid[0][i] != 0.0 || self.solid[1][i] != 0.0))
+    }
+
+    /// The solids' field `[wood, foliage]` at `c` (cell units from the grid origin); zeros
+    /// outside the grid and where the level has no solid.
+    #[inline]
+    pub fn solid_parts_at(&self, c: Vec3) -> [f32; 2] {
+        if !self.has_solid() {
+            return [0.0; 2];
+        }
+        if !c.is_finite() {
+            return [0.0; 2];
+        }
+        let [x, y, z] = [0, 1, 2].map(|a| padded_axis(c[a], self.dims[a]));
+        let mut out = [0.0f32; 2];
+        for (iz, wz) in z {
+            for (iy, wy) in y {
+                for (ix, wx) in x {
+                    let w = wx * wy * wz;
+                    if w != 0.0 {
+                        let i = self.index(ix, iy, iz);
+                        out[0] += self.solid[0][i] * w;
+                        out[1] += self.solid[1][i] * w;
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Whether `c` lies inside the solids with leaf fraction `foliage` (the foliage's solids
+    /// scale with it as its density does).
+    #[inline]
+    pub fn in_solid(&self, c: Vec3, foliage: f32) -> bool {
+        if !self.has_solid() {
+            return false;
+        }
+        let [w, f] = self.solid_parts_at(c);
+        w + foliage * f >= SOLID_LEVEL
+    }
+
+    /// Part `part`'s albedo at `c` (cell units from the grid origin), interpolated.
+    pub fn albedo_at(&self, part: usize, c: Vec3) -> Vec3 {
+        let Some((idx, w)) = self.trilinear(c) else {
+            return Vec3::ZERO;
+        };
+        (0..8)
+            .map(|k| Vec3::from(self.albedo[part][idx[k]]) * w[k])
+            .sum()
+    }
+
+    /// The outward normal of the solids' surface near `c` (model space axes): the trilinear
+    /// interpolation of the 3D Sobel gradients of their field at the eight cells around `c`
+    /// (as the density's normals are made), so that shading is continuous across cells;
+    /// `None` where it is flat.
+    pub fn solid_normal(&self, c: Vec3, foliage: f32) -> Option<Vec3> {
+        let (idx, w) = self.trilinear(c)?;
+        let [nx, ny, _] = self.dims;
+        let mut g = Vec3::ZERO;
+        for k in 0..8 {
+            let i = idx[k];
+            let at = [i % nx, i / nx % ny, i / (nx * ny)].map(|v| v as isize);
+            g += self.solid_sobel(at, foliage) * w[k];
+        }
+        (-g).try_normalize()
+    }
+
+    /// The Sobel gradient (unscaled) of the solids' field at cell `at`, the field 0 outside
+    /// the grid.
+    fn solid_sobel(&self, at: [isize; 3], foliage: f32) -> Vec3 {
+        let field = |d: [isize; 3]| {
+            let p: [isize; 3] = std::array::from_fn(|a| at[a] + d[a]);
+            if (0..3).any(|a| p[a] < 0 || p[a] >= self.dims[a] as isize) {
+                return 0.0;
+            }
+            let i = self.index(p[0] as usize, p[1] as usize, p[2] as usize);
+            self.solid[0][i] + foliage * self.solid[1][i]
+        };
+        let mut g = Vec3::ZERO;
+        for a in 0..3 {
+            let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+            for du in -1isize..=1 {
+                for dv in -1isize..=1 {
+                    let weight = ((2 - du.abs()) * (2 - dv.abs())) as f32;
+                    let mut d = [0isize; 3];
+                    d[u] = du;
+                    d[v] = dv;
+                    d[a] = 1;
+                    let up = field(d);
+                    d[a] = -1;
+                    g[a] += weight * (up - field(d));
+                }
+            }
+        }
+        g
     }
 
     /// The self-shadowing factor for an angle of `cos_g` (its cosine) between the directions to
@@ -322,7 +465,7 @@ pub struct Stencils {
 impl Stencils {
     pub fn of(level: &Level) -> Stencils {
         let [nx, ny, nz] = level.dims;
-        let filled = |i: usize| level.density[0][i] != 0.0 || level.density[1][i] != 0.0;
+        let filled = |i: usize| level.holds_cell(i);
         let mut bits = vec![0u64; level.cell_count().div_ceil(64)];
         for z in 0..nz {
             for y in 0..ny {
@@ -450,8 +593,7 @@ impl Occupancy {
         for z in 0..nz {
             for y in 0..ny {
                 for x in 0..nx {
-                    let i = level.index(x, y, z);
-                    if level.density[0][i] == 0.0 && level.density[1][i] == 0.0 {
+                    if !level.holds_cell(level.index(x, y, z)) {
                         continue;
                     }
                     for bz in bricks(z, dims[2]) {
@@ -683,10 +825,13 @@ impl Texel {
     }
 
     /// Extinction (1/m) of both parts at model-space point `p` on level `level`, along the
-    /// direction `dir` (model space).
+    /// direction `dir` (model space); inside a solid (full foliage), [`SOLID_EXTINCTION`].
     pub fn extinction(&self, level: usize, p: DVec3, dir: DVec3) -> f32 {
         let l = &self.levels[level];
         let q = (p - self.origin()) / l.cell;
+        if l.in_solid(q.as_vec3(), 1.0) {
+            return SOLID_EXTINCTION;
+        }
         let s = self.info.extinction_scale as f32 * l.directional_factor(dir.as_vec3());
         s * (l.interpolate(&l.density[0], q) + l.interpolate(&l.density[1], q))
     }
@@ -700,6 +845,9 @@ impl Texel {
 
     /// Optical depth of every column of cells of `level` along `axis` (both parts), in the
     /// model's units: the silhouette the texture casts along the axis is `1 - exp(-depth)`.
+    /// Where the level has solids (full foliage), the share of the column they block (at 4 x 4
+    /// lines across it: along a line the field is linear between the planes of cell centres,
+    /// so a line reaches the level where it does at one of them) adds `-ln(1 - share)`.
     pub fn column_depths(&self, level: usize, axis: usize) -> Vec<f64> {
         let l = &self.levels[level];
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
@@ -714,6 +862,25 @@ impl Texel {
                     let i = l.index(x, y, z);
                     depth[c[u] + l.dims[u] * c[v]] +=
                         s * (l.density[0][i] + l.density[1][i]) as f64;
+                }
+            }
+        }
+        if l.has_solid() {
+            const LINES: usize = 4;
+            for cv in 0..l.dims[v] {
+                for cu in 0..l.dims[u] {
+                    let mut blocked = 0;
+                    for line in 0..LINES * LINES {
+                        let mut p = Vec3::ZERO;
+                        p[u] = cu as f32 + ((line % LINES) as f32 + 0.5) / LINES as f32;
+                        p[v] = cv as f32 + ((line / LINES) as f32 + 0.5) / LINES as f32;
+                        blocked += usize::from((0..l.dims[axis]).any(|k| {
+                            p[axis] = k as f32 + 0.5;
+                            l.in_solid(p, 1.0)
+                        }));
+                    }
+                    let open = 1.0 - blocked as f64 / (LINES * LINES) as f64;
+                    depth[cu + l.dims[u] * cv] -= open.ln();
                 }
             }
         }

@@ -250,6 +250,94 @@ fn a_billboards_silhouette_is_kept_and_a_lost_one_warned_about() {
     assert!(!err.contains("warning"), "{err}");
 }
 
+/// The triangles of a closed box from `lo` to `hi`, outward-facing.
+fn closed_box(lo: [f32; 3], hi: [f32; 3]) -> Vec<[f32; 3]> {
+    let c = |i: usize| std::array::from_fn(|a| if i >> a & 1 == 1 { hi[a] } else { lo[a] });
+    let faces = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    faces
+        .iter()
+        .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]].map(c))
+        .collect()
+}
+
+/// A closed sphere of `radius` about `centre`, outward-facing, as a triangle soup.
+fn closed_sphere(centre: [f32; 3], radius: f32) -> Vec<[f32; 3]> {
+    let (rings, segments) = (12, 24);
+    let at = |i: usize, j: usize| {
+        // The poles exactly, so that their triangles share them.
+        if i == 0 || i == rings {
+            let y = if i == 0 { radius } else { -radius };
+            return [centre[0], centre[1] + y, centre[2]];
+        }
+        let (theta, phi) = (
+            std::f32::consts::PI * i as f32 / rings as f32,
+            std::f32::consts::TAU * (j % segments) as f32 / segments as f32,
+        );
+        [
+            centre[0] + radius * theta.sin() * phi.cos(),
+            centre[1] + radius * theta.cos(),
+            centre[2] + radius * theta.sin() * phi.sin(),
+        ]
+    };
+    let mut out = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (at(i, j), at(i, j + 1), at(i + 1, j), at(i + 1, j + 1));
+            if i > 0 {
+                out.extend([a, b, c]);
+            }
+            if i + 1 < rings {
+                out.extend([b, d, c]);
+            }
+        }
+    }
+    out
+}
+
+/// A low-poly tree (a closed ball of a crown on a thin closed trunk) keeps its crown as a
+/// solid, drawn as an opaque surface, on the levels fine enough for its shape, and its trunk
+/// as density: the file is 1.3, its silhouette along every axis is the mesh's within 0.02,
+/// and `inspect` says which levels draw solids.
+#[test]
+fn a_thick_closed_crown_is_baked_as_a_solid() {
+    let mut tris = closed_sphere([0.0, 4.0, 0.0], 2.0);
+    tris.extend(closed_box([-0.1, 0.0, -0.1], [0.1, 3.0, 0.1]));
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("x.gltf"), tiny_gltf(&tris, 4, |_| {})).unwrap();
+    let o = run(
+        &["bake", "x.gltf", "-o", "x.texel", "--resolution", "16"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    let texel =
+        texel_forest::formats::texel::decode(&std::fs::read(dir.path().join("x.texel")).unwrap())
+            .unwrap();
+    let l0 = &texel.levels[0];
+    assert!(l0.has_solid(), "level 0 draws no solid");
+    assert!(!texel.levels.last().unwrap().has_solid());
+    // The trunk is density, below the crown.
+    let trunk = l0.density[0].iter().sum::<f32>();
+    assert!(trunk > 0.0, "no trunk in the density");
+    for axis in 0..3 {
+        let (mesh, texture) = (texel.info.mesh_coverage[axis], texel.texture_coverage(axis));
+        assert!(
+            (texture - mesh).abs() < 0.02,
+            "axis {axis}: the texture blocks {texture} where the mesh blocks {mesh}"
+        );
+    }
+    let o = run(&["inspect", "x.texel"], dir.path());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("texel 1.3") && out.contains("solids"), "{out}");
+}
+
 #[test]
 fn bad_gltf_inputs_give_one_clear_error_and_no_output() {
     assert_bake_fails(
@@ -634,7 +722,15 @@ fn a_surface_hidden_inside_a_solid_does_not_colour_the_texture() {
                     origin + (glam::DVec3::new(x as f64, y as f64, z as f64) + 0.5) * l.cell;
                 // The crown's upper part: the trunk there is inside it, and the crown's floor,
                 // where the trunk shows, is five cells or more below.
-                if centre.y < 2.0 || l.density[0][l.index(x, y, z)] <= 0.0 {
+                // The crown is thick enough to be a solid (on level 0): its cells are those
+                // of the solid or, where a level has none, of the density.
+                let i = l.index(x, y, z);
+                let wood = if l.has_solid() {
+                    l.solid[0][i]
+                } else {
+                    l.density[0][i]
+                };
+                if centre.y < 2.0 || wood <= 0.0 {
                     continue;
                 }
                 crown_cells += 1;

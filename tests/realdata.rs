@@ -102,10 +102,15 @@ fn every_real_tree_bakes_and_inspects() {
             "{name}: {deps:?} names files beyond {may:?}"
         );
 
-        // Every model here has a trunk: it must keep wood density whatever its materials'
-        // alpha modes say, or a leafless render would lose the tree.
-        let wood: f64 = t.levels[0].density[0].iter().map(|&d| d as f64).sum();
-        assert!(wood > 0.0, "{name}: no wood density");
+        // Every model here has a trunk: it must keep wood, as density or as a solid, whatever
+        // its materials' alpha modes say, or a leafless render would lose the tree.
+        let l0 = &t.levels[0];
+        let wood: f64 = l0.density[0]
+            .iter()
+            .chain(&l0.solid[0])
+            .map(|&d| d as f64)
+            .sum();
+        assert!(wood > 0.0, "{name}: no wood");
         let o = run(
             &["inspect", &out, "--projection", "z", "-o", "p.png"],
             dir.path(),

@@ -11,7 +11,7 @@ class Bad(Exception):
     pass
 
 MAGIC = {b"\x89TEXEL\r\n": "texel", b"\x89TXINST\n": "instances"}
-MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 2, "instances": 1}
+MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 3, "instances": 1}
 CELL_LIMIT, TREE_LIMIT = 2**25, 2**24           # the reader's allocation limits (texel's defaults)
 
 def f32(x):  # round a Python float to binary32
@@ -183,6 +183,10 @@ def read_texel_header(c, minor, R):
     for name, want in REQUIRED.items():
         if have.get(name) != want: raise Bad(f"11: channel {name} missing or not {want[0]} x {want[1]} (got {have.get(name)})")
     if "leaves_foliage" in have and have["leaves_foliage"] != (6, F32): raise Bad(f"11: channel leaves_foliage is not 6 x F32 (got {have['leaves_foliage']})")
+    solids = [n for n in ("solid_wood", "solid_foliage") if n in have]
+    if len(solids) == 1: raise Bad(f"11: channel {solids[0]} without its pair")
+    for n in solids:
+        if have[n] != (1, U16): raise Bad(f"11: channel {n} is not 1 x Unorm16 (got {have[n]})")
     if cells > CELL_LIMIT: raise Bad(f"{cells} cells, more than this reader's limit of {CELL_LIMIT}")
     return h
 

@@ -200,7 +200,8 @@ pub(super) fn lattice(
 }
 
 /// Optical depth per unit extinction scale of the ray `o + t d` through `level`'s trilinear
-/// densities (both parts), by the midpoint rule of [`midpoints`].
+/// densities (both parts), by the midpoint rule of [`midpoints`]; infinite where the ray meets
+/// a solid, which blocks it whatever the directional factor.
 fn depth(level: &Sparse, origin: DVec3, o: DVec3, d: DVec3) -> f64 {
     let start = (o - origin) / level.cell;
     let dc = d / level.cell;
@@ -208,13 +209,17 @@ fn depth(level: &Sparse, origin: DVec3, o: DVec3, d: DVec3) -> f64 {
     if step == 0.0 {
         return 0.0;
     }
-    ts.map(|t| {
+    let mut sum = 0.0;
+    for t in ts {
         let c = start + dc * t;
-        let [wood, foliage] = level.density_at(Vec3::new(c.x as f32, c.y as f32, c.z as f32));
-        f64::from(wood + foliage)
-    })
-    .sum::<f64>()
-        * step
+        let c = Vec3::new(c.x as f32, c.y as f32, c.z as f32);
+        if level.in_solid(c, 1.0) {
+            return f64::INFINITY;
+        }
+        let [wood, foliage] = level.density_at(c);
+        sum += f64::from(wood + foliage);
+    }
+    sum * step
 }
 
 /// The midpoints `t` of equal steps of at most `1 / SAMPLES_PER_CELL` of a cell between where
@@ -247,16 +252,30 @@ pub(super) fn midpoints(
 /// is replaced by bisection. A handful of steps reach full precision where bisection took 50,
 /// each a pass over every ray.
 fn fit(depths: &[f64], target: f64) -> f64 {
-    // Rays that miss the texture add exactly 0 whatever f: the passes need not visit them.
-    let depths: Vec<f64> = depths.iter().copied().filter(|&d| d != 0.0).collect();
+    // Rays that miss the texture add exactly 0 whatever f, and rays a solid blocks exactly 1:
+    // the passes need not visit either, and the others must block what the solids leave.
+    let solid = depths.iter().filter(|d| d.is_infinite()).count() as f64;
+    if target <= 0.0 {
+        return 1.0;
+    }
+    let target = target - solid;
+    let depths: Vec<f64> = depths
+        .iter()
+        .copied()
+        .filter(|&d| d != 0.0 && d.is_finite())
+        .collect();
     let blocked = |f: f64| {
         depths.iter().fold((0.0, 0.0), |(b, slope), &d| {
             let e = (-f * d).exp();
             (b + (1.0 - e), slope + d * e)
         })
     };
-    if target <= 0.0 || blocked(1.0).0 <= 0.0 {
+    if blocked(1.0).0 <= 0.0 {
         return 1.0;
+    }
+    if target <= 0.0 {
+        // The solids block all the mesh does, or more: the rest as little as it may.
+        return F_MIN;
     }
     if blocked(F_MAX).0 <= target {
         return F_MAX;

@@ -120,6 +120,16 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
 /// number of triangles. Only closed parts have an inside; leaf cards and other open sheets are
 /// surfaces without volume.
 pub fn closed_triangles(mesh: &Mesh) -> Vec<bool> {
+    closed_components(mesh)
+        .iter()
+        .map(Option::is_some)
+        .collect()
+}
+
+/// Per triangle, the closed component it belongs to (numbered from 0 in order of their first
+/// triangle), or `None` for a triangle of an open one: the components of
+/// [`closed_triangles`].
+pub fn closed_components(mesh: &Mesh) -> Vec<Option<u32>> {
     let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
     let welded: Vec<u32> = mesh
         .positions
@@ -153,8 +163,15 @@ pub fn closed_triangles(mesh: &Mesh) -> Vec<bool> {
             component_closed[root as usize] = false;
         }
     }
+    let mut number: HashMap<u32, u32> = HashMap::new();
     (0..n as u32)
-        .map(|t| component_closed[find(&mut parent, t) as usize])
+        .map(|t| {
+            let root = find(&mut parent, t);
+            component_closed[root as usize].then(|| {
+                let next = number.len() as u32;
+                *number.entry(root).or_insert(next)
+            })
+        })
         .collect()
 }
 

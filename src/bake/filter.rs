@@ -8,12 +8,17 @@ use crate::volume::Level;
 /// through, along each axis, the mean of what its four columns of two children let through,
 /// averaged over the three axes (`extinction_scale` turns density into extinction). A plain
 /// average would conserve optical mass but make distant trees too opaque: the mean of
-/// exp(-x) is more than exp of the mean. Albedo is the density-weighted average of each part,
-/// the leaf-normal moment the foliage-density-weighted average;
+/// exp(-x) is more than exp of the mean. Albedo is the density-weighted average of each part
+/// (weighted by the part's solid instead where a child has solid: an opaque surface is what
+/// shows), the leaf-normal moment the foliage-density-weighted average, the solids' inside
+/// fractions the plain mean of the eight (a box filter);
 /// gradients are recomputed on the coarser density.
 pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
     let dims = level.dims.map(|d| d.div_ceil(2));
     let mut out = Level::empty(dims, level.cell * 2.0);
+    if level.has_solid() {
+        out.solid = [0, 1].map(|_| vec![0.0; out.cell_count()]);
+    }
     for z in 0..dims[2] {
         for y in 0..dims[1] {
             for x in 0..dims[0] {
@@ -21,6 +26,7 @@ pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
                 for part in 0..2 {
                     let (mut mass, mut weighted, mut plain, mut n) =
                         (0.0f64, [0.0f64; 3], [0.0f64; 3], 0);
+                    let (mut solid, mut on_solid) = (0.0f64, [0.0f64; 3]);
                     let mut children = [0.0f64; 8];
                     for (k, (dx, dy, dz)) in (0..8).map(|c| (c, (c & 1, (c >> 1) & 1, c >> 2))) {
                         let (cx, cy, cz) = (2 * x + dx, 2 * y + dy, 2 * z + dz);
@@ -31,15 +37,27 @@ pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
                         let d = level.density[part][i] as f64;
                         children[k] = d;
                         mass += d;
+                        let s = if level.has_solid() {
+                            f64::from(level.solid[part][i])
+                        } else {
+                            0.0
+                        };
+                        solid += s;
                         for c in 0..3 {
                             weighted[c] += d * level.albedo[part][i][c] as f64;
+                            on_solid[c] += s * level.albedo[part][i][c] as f64;
                             plain[c] += level.albedo[part][i][c] as f64;
                         }
                         n += 1;
                     }
+                    if level.has_solid() {
+                        out.solid[part][o] = (solid / 8.0) as f32;
+                    }
                     out.density[part][o] =
                         transmitted_density(&children, level.cell * extinction_scale) as f32;
-                    out.albedo[part][o] = if mass > 0.0 {
+                    out.albedo[part][o] = if solid > 0.0 {
+                        on_solid.map(|c| (c / solid) as f32)
+                    } else if mass > 0.0 {
                         weighted.map(|c| (c / mass) as f32)
                     } else {
                         plain.map(|c| (c / n as f64) as f32)

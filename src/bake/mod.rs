@@ -11,6 +11,7 @@ mod grid;
 mod scan;
 mod seen;
 pub mod sobel;
+mod solid;
 mod tomography;
 
 use rayon::prelude::*;
@@ -187,11 +188,14 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     let (foliage, wood) = settings.patterns()?;
     let materials = classify::material_parts(mesh, &foliage, wood.as_ref());
     let is_foliage = classify::foliage_triangles(mesh, &materials);
-    let is_closed = classify::closed_triangles(mesh);
+    let components = classify::closed_components(mesh);
+    let is_closed = components.iter().map(Option::is_some).collect();
+    let thick = solid::thick_triangles(mesh, &components, grid.cell);
     let foliage_triangles = is_foliage.iter().filter(|&&f| f).count() as u64;
     let model = ScanModel::new(mesh, grid, is_foliage, is_closed);
 
-    let scans = scan_all(&model, settings.density == DensityModel::Occupancy);
+    let occupancy = settings.density == DensityModel::Occupancy;
+    let scans = scan_all(&model, occupancy);
     let rays = (grid.k * grid.k) as f64;
     let mesh_coverage: [f64; 3] = std::array::from_fn(|a| {
         let misses: u64 = scans[a].misses[0].iter().map(|&m| m as u64).sum();
@@ -208,14 +212,39 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
             (density, gamma)
         }
     };
+    // Colour and leaves come from every surface, solid or not: the scan leaves out only
+    // those nothing can see.
     let mut level = Level::empty(grid.dims, grid.cell);
-    level.density = density;
     level.albedo = albedo(&grid, &scans);
     level.leaves = leaf_normals(&grid, &scans);
-    for part in 0..2 {
-        level.gradient[part] = sobel::gradient(&level.density[part], grid.dims, grid.cell);
+    let with_density = |mut level: Level, density: [Vec<f32>; 2]| {
+        for part in 0..2 {
+            level.gradient[part] = sobel::gradient(&density[part], grid.dims, grid.cell);
+        }
+        level.density = density;
+        mip_chain(level, extinction_scale)
+    };
+    let mut levels = with_density(level.clone(), density);
+    if thick.iter().any(|&t| t) {
+        // The thick closed parts as solids, the rest as density (`bake::solid`).
+        let thin: Vec<bool> = thick.iter().map(|t| !t).collect();
+        let thin_scans = scan_all(&model.only(&thin), occupancy);
+        let mut thin_density = match settings.density {
+            DensityModel::Transmittance => transmittance_density(&grid, &thin_scans),
+            DensityModel::Occupancy => occupancy_density(&grid, &thin_scans),
+        };
+        let split = solid::split(&grid, &scan_all(&model.only(&thick), true));
+        // What of the thick parts their level set leaves out is density, as the rest is.
+        for (density, lost) in thin_density.iter_mut().zip(&split.lost) {
+            for (d, &f) in density.iter_mut().zip(lost) {
+                if f > 0.0 {
+                    *d += solid::lost_density(f, settings.density, grid.k, grid.cell);
+                }
+            }
+        }
+        level.solid = split.solid;
+        levels = solid::choose(levels, with_density(level, thin_density));
     }
-    let mut levels = mip_chain(level, extinction_scale);
     let forms = calibrate::directional_forms(mesh, &levels, grid.origin, extinction_scale);
     for (level, s) in levels.iter_mut().zip(forms) {
         level.directional = s;

@@ -45,12 +45,14 @@ pub struct ScanModel<'a> {
     pub corners: Vec<[DVec3; 3]>,
     pub is_foliage: Vec<bool>,
     pub is_closed: Vec<bool>,
+    /// The triangles the rays cross; the others are not there for this scan.
+    pub drawn: Vec<bool>,
 }
 
 impl<'a> ScanModel<'a> {
     pub fn new(mesh: &'a Mesh, grid: Grid, is_foliage: Vec<bool>, is_closed: Vec<bool>) -> Self {
         let h = grid.fine_cell();
-        let corners = mesh
+        let corners: Vec<[DVec3; 3]> = mesh
             .triangles
             .iter()
             .map(|t| {
@@ -58,12 +60,26 @@ impl<'a> ScanModel<'a> {
                     .map(|v| (mesh.positions[v as usize].as_dvec3() - grid.origin) / h)
             })
             .collect();
+        let drawn = vec![true; corners.len()];
         ScanModel {
             mesh,
             grid,
             corners,
             is_foliage,
             is_closed,
+            drawn,
+        }
+    }
+
+    /// The same model with only the triangles `keep` marks.
+    pub fn only(&self, keep: &[bool]) -> ScanModel<'a> {
+        ScanModel {
+            mesh: self.mesh,
+            grid: self.grid,
+            corners: self.corners.clone(),
+            is_foliage: self.is_foliage.clone(),
+            is_closed: self.is_closed.clone(),
+            drawn: keep.to_vec(),
         }
     }
 }
@@ -162,6 +178,9 @@ fn bin_triangles(model: &ScanModel, axis: usize) -> Vec<Vec<u32>> {
     let k = grid.k;
     let mut bins = vec![Vec::new(); grid.dims[u] * grid.dims[v]];
     for (t, c) in model.corners.iter().enumerate() {
+        if !model.drawn[t] {
+            continue;
+        }
         let lo_u = c[0][u].min(c[1][u]).min(c[2][u]);
         let hi_u = c[0][u].max(c[1][u]).max(c[2][u]);
         let lo_v = c[0][v].min(c[1][v]).min(c[2][v]);

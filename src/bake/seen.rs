@@ -44,7 +44,7 @@ use crate::geom::{Ray, barycentric_point, offset_origin};
 use crate::import::Mesh;
 use crate::mesh_tracer::MeshTracer;
 use crate::rng;
-use crate::volume::{Level, SELF_SHADOW_ANGLES, Sparse};
+use crate::volume::{Level, SELF_SHADOW_ANGLES, SOLID_EXTINCTION, Sparse};
 
 /// The largest factor a fit may give.
 const K_MAX: f64 = 16.0;
@@ -159,10 +159,16 @@ fn mesh_seen(tracer: &MeshTracer, leaves: &[LeafHit], l: DVec3) -> Seen {
 }
 
 /// The level's extinction `[wood, foliage]` at model-space point `p`, times `factor` (the
-/// extinction scale and the directional factor).
+/// extinction scale and the directional factor); inside a solid, opaque in its part.
 fn extinction(level: &Sparse, origin: DVec3, p: DVec3, factor: f64) -> [f64; 2] {
     let c = (p - origin) / level.cell;
-    let d = level.density_at(Vec3::new(c.x as f32, c.y as f32, c.z as f32));
+    let c = Vec3::new(c.x as f32, c.y as f32, c.z as f32);
+    if level.in_solid(c, 1.0) {
+        let [w, f] = level.solid_parts_at(c);
+        let opaque = f64::from(SOLID_EXTINCTION);
+        return if f > w { [0.0, opaque] } else { [opaque, 0.0] };
+    }
+    let d = level.density_at(c);
     d.map(|x| f64::from(x) * factor)
 }
 

@@ -17,7 +17,7 @@ use crate::volume::{
 pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";
 pub const MAJOR: u16 = 1;
 /// Minor version 1 appends the wood pattern and the material table to the header.
-pub const MINOR: u16 = 2;
+pub const MINOR: u16 = 3;
 
 /// Limits a reader enforces before it allocates anything a header asks for.
 const MAX_LEVELS: usize = 16;
@@ -198,10 +198,32 @@ fn leaves_channel() -> ChannelHeader {
     }
 }
 
-/// Every channel this version writes, in payload order.
-fn channels(model: DensityModel) -> Vec<ChannelHeader> {
-    let mut channels = v1_channels(model);
+/// The channels 1.3 appends: each part's solid, the fraction of a cell inside the model's
+/// thick closed parts, as Unorm16. Optional for readers (none: no solids).
+const SOLIDS: [&str; 2] = ["solid_wood", "solid_foliage"];
+
+fn solid_channel(name: &str) -> ChannelHeader {
+    ChannelHeader {
+        name: name.to_string(),
+        components: 1,
+        encoding: Encoding::Unorm16,
+        unit: "1".to_string(),
+    }
+}
+
+/// Whether a texture draws solids: only then are the solid channels written, in a 1.3 file;
+/// a texture without is written as 1.2 wrote it, byte for byte.
+fn has_solids(texel: &Texel) -> bool {
+    texel.levels.iter().any(Level::has_solid)
+}
+
+/// Every channel this version writes for `texel`, in payload order.
+fn channels(texel: &Texel) -> Vec<ChannelHeader> {
+    let mut channels = v1_channels(texel.info.density_model);
     channels.push(leaves_channel());
+    if has_solids(texel) {
+        channels.extend(SOLIDS.map(solid_channel));
+    }
     channels
 }
 
@@ -242,6 +264,8 @@ pub(crate) struct Parts {
     pub(crate) extension: HeaderV1_1,
     pub(crate) extension2: HeaderV1_2,
     pub(crate) payload: Vec<u8>,
+    /// 3 where the payload holds solids, else 2.
+    pub(crate) minor: u16,
 }
 
 fn parts(texel: &Texel) -> Parts {
@@ -272,7 +296,7 @@ fn parts(texel: &Texel) -> Parts {
                 cell: l.cell,
             })
             .collect(),
-        channels: channels(info.density_model),
+        channels: channels(texel),
     };
     let extension = HeaderV1_1 {
         wood_pattern: info.parameters.wood_pattern.clone(),
@@ -314,12 +338,22 @@ fn parts(texel: &Texel) -> Parts {
             );
         }
         payload.extend(level.leaves.iter().flatten().flat_map(|m| m.to_le_bytes()));
+        if has_solids(texel) {
+            for part in 0..2 {
+                if level.has_solid() {
+                    payload.extend(level.solid[part].iter().flat_map(|&v| unorm16(v)));
+                } else {
+                    payload.extend(std::iter::repeat_n(0u8, 2 * level.cell_count()));
+                }
+            }
+        }
     }
     Parts {
         header,
         extension,
         extension2,
         payload,
+        minor: if has_solids(texel) { 3 } else { 2 },
     }
 }
 
@@ -329,7 +363,7 @@ fn assemble(parts: &Parts) -> Result<Vec<u8>, ContainerError> {
     let mut header = bincode::encode_to_vec(&parts.header, header_config()).map_err(too_large)?;
     header.extend(bincode::encode_to_vec(&parts.extension, header_config()).map_err(too_large)?);
     header.extend(bincode::encode_to_vec(&parts.extension2, header_config()).map_err(too_large)?);
-    container::write(MAGIC, MAJOR, MINOR, &header, &parts.payload)
+    container::write(MAGIC, MAJOR, parts.minor, &header, &parts.payload)
 }
 
 /// A file the writer would refuse: `texel`'s parts with `edit` applied, put in a container
@@ -511,7 +545,7 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
             opened.raw_len()
         )));
     }
-    let (slots, leaves_slot) = channel_slots(&header)?;
+    let (slots, leaves_slot, solid_slots) = channel_slots(&header)?;
     let payload = opened.payload()?;
 
     let mut levels = Vec::with_capacity(header.levels.len());
@@ -546,6 +580,18 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
             directional: fits.directional[index],
             self_shadow: fits.self_shadow[index],
             wood_weight: fits.wood_weight[index],
+            solid: match solid_slots {
+                // A level whose solids are all 0 has none, as the bake leaves it.
+                Some([w, f]) => {
+                    let solid = [unorm(bytes_of(w)), unorm(bytes_of(f))];
+                    if solid.iter().flatten().all(|&v| v == 0.0) {
+                        [Vec::new(), Vec::new()]
+                    } else {
+                        solid
+                    }
+                }
+                None => [Vec::new(), Vec::new()],
+            },
         };
         check_values(&level)?;
         levels.push(level);
@@ -557,8 +603,11 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
 }
 
 /// Where each channel the reader uses sits in the header's table: the six required ones (in
-/// [`v1_channels`] order), each checked for its layout, and (1.2) the optional leaf moments.
-fn channel_slots(header: &Header) -> Result<(Vec<usize>, Option<usize>), TexelError> {
+/// [`v1_channels`] order), each checked for its layout, (1.2) the optional leaf moments and
+/// (1.3) the optional solids, both parts or neither.
+type Slots = (Vec<usize>, Option<usize>, Option<[usize; 2]>);
+
+fn channel_slots(header: &Header) -> Result<Slots, TexelError> {
     let find = |name: &str| header.channels.iter().position(|ch| ch.name == name);
     let layout = |i: usize, want: &ChannelHeader| {
         let have = &header.channels[i];
@@ -585,7 +634,23 @@ fn channel_slots(header: &Header) -> Result<(Vec<usize>, Option<usize>), TexelEr
         }
         None => None,
     };
-    Ok((slots, leaves))
+    let solids = match SOLIDS.map(find) {
+        [Some(w), Some(f)] => {
+            for (i, name) in [w, f].into_iter().zip(SOLIDS) {
+                slots.push(layout(i, &solid_channel(name))?);
+            }
+            Some([slots.len() - 2, slots.len() - 1])
+        }
+        [None, None] => None,
+        [w, _] => {
+            return Err(TexelError::Header(format!(
+                "channel {} is there without {}",
+                SOLIDS[usize::from(w.is_none())],
+                SOLIDS[usize::from(w.is_some())]
+            )));
+        }
+    };
+    Ok((slots, leaves, solids))
 }
 
 fn f32s(b: &[u8]) -> Vec<f32> {
@@ -624,6 +689,28 @@ fn check_values(level: &Level) -> Result<(), TexelError> {
         {
             return Err(TexelError::Payload(format!(
                 "a gradient in a level of {dims:?} cells is not finite"
+            )));
+        }
+    }
+    // Solids: both parts or neither, a fraction per cell.
+    let n = level.cell_count();
+    match level.solid.each_ref().map(Vec::len) {
+        [0, 0] => {}
+        [a, b] if a == n && b == n => {
+            if let Some(v) = level
+                .solid
+                .iter()
+                .flatten()
+                .find(|v| !(0.0..=1.0).contains(*v))
+            {
+                return Err(TexelError::Payload(format!(
+                    "solid {v} in a level of {dims:?} cells is not a fraction"
+                )));
+            }
+        }
+        [a, b] => {
+            return Err(TexelError::Payload(format!(
+                "solids of {a} and {b} cells in a level of {n}"
             )));
         }
     }
@@ -905,6 +992,55 @@ pub(crate) mod tests {
     }
 
     /// Pins the header's byte layout against formats/texel.md.
+    /// A texture with solids on its first levels is written as 1.3 with both solid channels
+    /// (zeros on the levels without), and read back as it was, bit for bit (fractions on the
+    /// Unorm16 grid); without solids it is the 1.2 file it always was. A file with one solid
+    /// channel and not the other is refused, naming them.
+    #[test]
+    fn solids_are_written_as_1_3_and_read_back() {
+        let plain = sample_texel(5);
+        let bytes = encode(&plain).unwrap();
+        assert_eq!(
+            container::open(&bytes, MAGIC, "texel", MAJOR)
+                .unwrap()
+                .minor,
+            2
+        );
+        let mut t = plain.clone();
+        let mut s = Stream::new(8, 0);
+        for l in &mut t.levels[..2] {
+            let n = l.cell_count();
+            l.solid = [0, 1].map(|_| {
+                (0..n)
+                    .map(|_| (s.unit() * 65535.0).round() as f32 / 65535.0)
+                    .collect()
+            });
+        }
+        let bytes = encode(&t).unwrap();
+        assert_eq!(
+            container::open(&bytes, MAGIC, "texel", MAJOR)
+                .unwrap()
+                .minor,
+            3
+        );
+        assert_eq!(decode(&bytes).unwrap(), t);
+        let half = forge(&t, |p| {
+            for c in &mut p.header.channels {
+                if c.name == "solid_foliage" {
+                    c.name = "solid_other".into();
+                }
+            }
+        });
+        let e = decode(&half).unwrap_err().to_string();
+        assert!(
+            e.contains("solid_wood") && e.contains("solid_foliage"),
+            "{e}"
+        );
+        let mut bad = t.clone();
+        bad.levels[0].solid[1].pop();
+        assert!(encode(&bad).unwrap_err().to_string().contains("solids of"));
+    }
+
     #[test]
     fn header_layout_matches_the_spec() {
         let t = sample_texel(1);

@@ -53,9 +53,29 @@ fn scale_for(w: usize, h: usize) -> usize {
     (TARGET / w.max(h).max(1)).max(1)
 }
 
-/// Blends the parts' albedo by their density; mid grey where the cell is empty.
+/// Whether cell `i` is inside the level's solids (full foliage): its centre reaches the level.
+fn solid_cell(l: &Level, i: usize) -> bool {
+    l.has_solid() && l.solid[0][i] + l.solid[1][i] >= crate::volume::SOLID_LEVEL
+}
+
+/// Cell `i`'s optical depth across one cell, `scale` its extinction per density; infinite in
+/// a solid.
+fn cell_depth(l: &Level, i: usize, scale: f64) -> f64 {
+    if solid_cell(l, i) {
+        f64::INFINITY
+    } else {
+        scale * (l.density[0][i] + l.density[1][i]) as f64
+    }
+}
+
+/// Blends the parts' albedo by their density (by their solid in a solid); mid grey where the
+/// cell is empty.
 fn cell_albedo(l: &Level, i: usize) -> [f32; 3] {
-    let (w, f) = (l.density[0][i], l.density[1][i]);
+    let (w, f) = if solid_cell(l, i) {
+        (l.solid[0][i], l.solid[1][i])
+    } else {
+        (l.density[0][i], l.density[1][i])
+    };
     if w + f <= 0.0 {
         return [0.18; 3];
     }
@@ -63,6 +83,15 @@ fn cell_albedo(l: &Level, i: usize) -> [f32; 3] {
 }
 
 fn cell_normal(l: &Level, i: usize) -> Option<[f32; 3]> {
+    if solid_cell(l, i) {
+        let [nx, ny, _] = l.dims;
+        let c = glam::Vec3::new(
+            (i % nx) as f32,
+            (i / nx % ny) as f32,
+            (i / (nx * ny)) as f32,
+        );
+        return l.solid_normal(c + 0.5, 1.0).map(|n| n.to_array());
+    }
     crate::volume::normal(std::array::from_fn(|c| {
         l.gradient[0][i][c] + l.gradient[1][i][c]
     }))
@@ -88,7 +117,7 @@ pub fn slice(texel: &Texel, level: usize, axis: usize, index: usize) -> RgbImage
         for col in 0..w {
             let [x, y, z] = view.cell(col, row, depth);
             let i = l.index(x, y, z);
-            let tau = scale * (l.density[0][i] + l.density[1][i]) as f64;
+            let tau = cell_depth(l, i, scale);
             let opacity = ramp((1.0 - (-tau).exp()) as f32);
             let albedo = to_srgb8(cell_albedo(l, i));
             let normal = cell_normal(l, i).map_or([128; 3], |n| {
@@ -134,7 +163,7 @@ pub fn projection(texel: &Texel, level: usize, axis: usize) -> RgbImage {
             for d in 0..view.depth() {
                 let [x, y, z] = view.cell(col, row, d);
                 let i = l.index(x, y, z);
-                let tau = scale * (l.density[0][i] + l.density[1][i]) as f64;
+                let tau = cell_depth(l, i, scale);
                 if tau <= 0.0 {
                     continue;
                 }

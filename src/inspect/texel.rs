@@ -62,6 +62,9 @@ pub struct LevelSummary {
     pub self_shadow: [f32; 6],
     /// The weight on the wood's extinction in choosing which part scatters.
     pub wood_weight: f32,
+    /// Where the level draws solids (texel 1.3): the share of its cells whose centre is
+    /// inside them, full foliage; `None` where it draws none.
+    pub solid: Option<f64>,
 }
 
 #[derive(Serialize, Debug)]
@@ -167,6 +170,12 @@ fn level_summary(l: &Level) -> LevelSummary {
         self_shadow: l.self_shadow,
         wood_weight: l.wood_weight,
         factor_axes: [Vec3::X, Vec3::Y, Vec3::Z].map(|w| l.directional_factor(w)),
+        solid: l.has_solid().then(|| {
+            let inside = (0..l.cell_count())
+                .filter(|&i| l.solid[0][i] + l.solid[1][i] >= crate::volume::SOLID_LEVEL)
+                .count();
+            inside as f64 / l.cell_count() as f64
+        }),
         factor_range: [
             factors.iter().copied().fold(f32::INFINITY, f32::min),
             factors.iter().copied().fold(0.0, f32::max),
@@ -271,6 +280,21 @@ fn write_grid(o: &mut String, s: &Summary) {
         "directional   extinction factor along x/y/z (range), per level: {}",
         factors.join("  ")
     );
+    let solids: Vec<String> = s
+        .levels
+        .iter()
+        .map(|l| {
+            l.solid
+                .map_or("-".to_string(), |v| number(v, 3).to_string())
+        })
+        .collect();
+    if s.levels.iter().any(|l| l.solid.is_some()) {
+        let _ = writeln!(
+            o,
+            "solids        share of cells inside the thick closed parts, drawn as surfaces, per level (-: none, density alone): {}",
+            solids.join(" ")
+        );
+    }
     let angles: Vec<String> = crate::volume::SELF_SHADOW_ANGLES
         .iter()
         .map(|a| format!("{a}"))

@@ -75,6 +75,73 @@ enum Behind<'a> {
     Ground(&'a super::Ground, (u32, TriangleHit)),
     /// A tree drawn from its polygon model.
     Tree(TreeHit),
+    /// A texture's solid (`bake::solid`).
+    Solid(SolidHit),
+}
+
+/// Where a view ray meets a texture's solid: an opaque surface, as the mesh's.
+struct SolidHit {
+    instance: u32,
+    level: usize,
+    t: f32,
+    /// Outward, renderer frame.
+    normal: Vec3,
+    albedo: Vec3,
+    species: f32,
+    /// The texture's cell, renderer-frame metres: how far the shadow ray starts off it.
+    step: f32,
+}
+
+/// The surface of active tree `a`'s solid that the ray `dir` enters between `start` and
+/// `inside` (a point inside it): found by bisection of the solids' field along the ray.
+fn solid_surface(scene: &Scene, a: &Active, dir: Vec3, start: f32, inside: f32) -> SolidHit {
+    let inst = scene.instances.get(a.instance);
+    let look = &scene.looks[inst.look as usize];
+    let level = &scene.texels[look.texel].levels[a.level];
+    let solid_at = |t: f32| level.in_solid(a.c0 + a.dc * t, look.foliage);
+    // The segment's sample found the solid, but the surface may lie in a segment before,
+    // whose sample happened to fall short of it: back up a cell at a time to a point outside.
+    let (mut lo, mut hi) = (start, inside);
+    for _ in 0..4 {
+        if !solid_at(lo) || lo <= 0.0 {
+            break;
+        }
+        hi = lo;
+        lo = (lo - a.step).max(0.0);
+    }
+    if solid_at(lo) {
+        hi = lo;
+    } else {
+        // A four-thousandth of a cell, well within what the cells hold.
+        for _ in 0..12 {
+            let mid = 0.5 * (lo + hi);
+            if solid_at(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+    }
+    let c = a.c0 + a.dc * hi;
+    let [wood, foliage] = level.solid_parts_at(c);
+    let albedo = if look.foliage * foliage > wood {
+        look.foliage_albedo
+    } else {
+        level.albedo_at(0, c)
+    };
+    // Where the field is flat (a solid's single cell), the surface faces the eye.
+    let normal = level
+        .solid_normal(c, look.foliage)
+        .map_or(-dir, |n| inst.dir_to_world(n).normalize());
+    SolidHit {
+        instance: a.instance,
+        level: a.level,
+        t: hi,
+        normal,
+        albedo,
+        species: inst.look as f32 + 1.0,
+        step: a.step,
+    }
 }
 
 fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: Draw) -> Radiance {
@@ -110,6 +177,7 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
     let record = matte::recording();
     let mut each = Vec::new();
     SURFACES.with_borrow_mut(|s| s.clear());
+    let mut solid_hit = None;
     while textures && let Some(start) = walk.advance(t) {
         t = start;
         if let Some(next) = walk.empty_until(t) {
@@ -137,6 +205,10 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
         each.clear();
         let m = mix(scene, &walk.active, ts, record.then_some(&mut each));
         out.samples += u32::from(m.read);
+        if let Some(k) = m.solid {
+            solid_hit = Some(solid_surface(scene, &walk.active[k], dir, t, ts));
+            break;
+        }
         let sigma = m.sigma();
         let length = end - t;
         t = end;
@@ -197,10 +269,11 @@ fn trace(scene: &Scene, dir: Vec3, spread: f32, key: u64, march: &March, draw: D
         transmittance = left;
     }
     out.canopy = 1.0 - transmittance;
-    let behind = match (tree_hit, ground_hit) {
-        (Some(h), _) => Behind::Tree(h),
-        (None, Some((g, h))) => Behind::Ground(g, h),
-        (None, None) => Behind::Sky,
+    let behind = match (solid_hit, tree_hit, ground_hit) {
+        (Some(s), ..) => Behind::Solid(s),
+        (None, Some(h), _) => Behind::Tree(h),
+        (None, None, Some((g, h))) => Behind::Ground(g, h),
+        (None, None, None) => Behind::Sky,
     };
     let lighting = SurfaceLight {
         spread,
@@ -338,6 +411,7 @@ fn scatter(
                         instance: a.instance,
                         level: a.level,
                         factor: texel.levels[a.level].self_shadow_at(cos_g),
+                        exact: false,
                     };
                     n += 1;
                 }
@@ -389,6 +463,8 @@ struct Mix {
     home: usize,
     /// Whether any texture was read: a step where every stencil is empty reads none.
     read: bool,
+    /// The first active instance whose solid holds the point: it ends the ray there.
+    solid: Option<usize>,
 }
 
 impl Mix {
@@ -410,6 +486,7 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
         densest: (0.0, 0),
         home: 0,
         read: false,
+        solid: None,
     };
     for (k, a) in active.iter().enumerate() {
         if a.found_empty_at(ts) {
@@ -428,6 +505,10 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
         let inst = scene.instances.get(a.instance);
         let look = &scene.looks[inst.look as usize];
         let level = &scene.texels[look.texel].levels[a.level];
+        if level.has_solid() && level.in_solid(a.c0 + a.dc * ts, look.foliage) {
+            m.solid.get_or_insert(k);
+            continue;
+        }
         let f = level.fetch_at(&axes);
         let (wood, foliage) = (
             a.extinction(f.density[0]),
@@ -519,6 +600,7 @@ fn finish(
     });
     match &behind {
         Behind::Tree(h) => matte::add(h.instance, transmittance),
+        Behind::Solid(h) => matte::add(h.instance, transmittance),
         Behind::Ground(..) => matte::add(matte::TERRAIN, transmittance),
         Behind::Sky if scene.sky.is_some() => matte::add(matte::SKY, transmittance),
         Behind::Sky => {}
@@ -531,6 +613,13 @@ fn finish(
             out.band_canopy += transmittance;
         }
     }
+    if let Behind::Solid(h) = &behind {
+        // A solid is opaque: the canopy is whole, that much of it the texture's.
+        out.canopy = 1.0;
+        if l.draw.in_band(scene, h.instance) {
+            out.band_canopy += transmittance;
+        }
+    }
     match behind {
         Behind::Ground(g, hit) if transmittance >= l.march.cutoff => {
             light_ground(scene, g, ray, hit, transmittance, (l, strata), out);
@@ -538,7 +627,10 @@ fn finish(
         Behind::Tree(h) if transmittance >= l.march.cutoff => {
             light_tree(scene, ray, &h, transmittance, (l, strata), out);
         }
-        Behind::Ground(..) | Behind::Tree(_) => out.transmittance = 0.0,
+        Behind::Solid(h) if transmittance >= l.march.cutoff => {
+            light_solid(scene, ray, &h, transmittance, (l, strata), out);
+        }
+        Behind::Ground(..) | Behind::Tree(_) | Behind::Solid(_) => out.transmittance = 0.0,
         Behind::Sky => {
             if let Some(sky) = scene.sky {
                 out.rgb += sky * transmittance;
@@ -580,6 +672,7 @@ fn light_ground(
         species: 0.0,
         leave: g.leave(tri, &hit, normal, scene.sun.direction),
         light_key: rng::hash3(l.key, 0, purpose::GROUND_LIGHT),
+        own: None,
     };
     light_opaque(scene, &surface, transmittance, (l, strata), out, |lit| {
         shade_ground(scene, albedo, normal, lit)
@@ -608,14 +701,47 @@ fn light_tree(
         // The ray's own key: its mesh stream is the one the mesh method's shadow ray draws
         // alpha-blended triangles from.
         light_key: l.key,
+        own: None,
     };
     light_opaque(scene, &surface, transmittance, (l, strata), out, |lit| {
         shade(scene, s.albedo, Some(s.normal), lit, -ray.dir)
     });
 }
 
-/// An opaque surface ending a view ray (the terrain, or a tree's model): where, what the AOVs
-/// report of it, where its shadow ray leaves, and that ray's key.
+/// A texture's solid where the view `ray` meets it, seen through `transmittance` of textures
+/// in front: lit as a tree's model is, its shadow ray leaving a tenth of a cell off the
+/// surface and marching its own tree whatever the shadows (a cached grid of the tree's depths
+/// would blur the surface the ray starts on).
+fn light_solid(
+    scene: &Scene,
+    ray: Ray,
+    h: &SolidHit,
+    transmittance: f32,
+    (l, strata): (&SurfaceLight, &mut Strata),
+    out: &mut Radiance,
+) {
+    let surface = Opaque {
+        t: h.t,
+        normal: h.normal,
+        albedo: h.albedo,
+        species: h.species,
+        leave: ray.dir * h.t + h.normal * (0.1 * h.step),
+        light_key: rng::hash3(l.key, 0, purpose::SOLID_LIGHT),
+        own: Some(OwnTree {
+            instance: h.instance,
+            level: h.level,
+            factor: 1.0,
+            exact: true,
+        }),
+    };
+    light_opaque(scene, &surface, transmittance, (l, strata), out, |lit| {
+        shade(scene, h.albedo, Some(h.normal), lit, -ray.dir)
+    });
+}
+
+/// An opaque surface ending a view ray (the terrain, a tree's model, a texture's solid):
+/// where, what the AOVs report of it, where its shadow ray leaves, that ray's key, and the
+/// tree it leaves (a solid's).
 struct Opaque {
     t: f32,
     normal: Vec3,
@@ -623,6 +749,7 @@ struct Opaque {
     species: f32,
     leave: Vec3,
     light_key: u64,
+    own: Option<OwnTree>,
 }
 
 /// `surface` seen through `transmittance`: lit by the sun through everything (by roulette, as
@@ -644,7 +771,7 @@ fn light_opaque(
             let caster = Caster {
                 footprint: surface.t * l.spread,
                 key: surface.light_key,
-                own: &[],
+                own: surface.own.as_slice(),
                 draw: l.draw,
             };
             sun_light(scene, surface.leave, l.march, &caster)

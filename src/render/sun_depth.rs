@@ -33,7 +33,7 @@ use super::instances::{Instances, TreeTransform};
 use super::scene::{Look, Scene};
 use super::walk::SIGMA_MAX;
 use crate::geom::Ray;
-use crate::volume::{Level, Texel, clamped_axis};
+use crate::volume::{Level, SOLID_LEVEL, Texel, clamped_axis, padded_axis};
 
 /// Turns about +Y a tree's rotation is recorded in (per instance, one byte).
 const TURNS: usize = 256;
@@ -217,6 +217,12 @@ pub(super) struct Grid {
     /// Blocks across `a` and `b`.
     blocks: [usize; 2],
     unit: f32,
+    /// Per column (`x + dims[0] y`), where along it (in layers) the ray from the sun first
+    /// enters a solid, not a number where it enters none; empty for a level without solids.
+    /// A shadow map (as a deep shadow map's opaque part): a point past it is in the solid's
+    /// shadow, sharp to a column, where depths through a solid interpolated between columns
+    /// would darken a column's width around every solid's shadow.
+    solid_entry: Box<[f32]>,
 }
 
 impl Grid {
@@ -267,6 +273,12 @@ impl Grid {
         // Every column of a layer reads the slice at the same few points across `a` (and a
         // row of them at one across `b`): where, and with what weights, is worked out once.
         let mut taps = Vec::with_capacity(dims[0]);
+        // Per column, where along it (layers) the ray from the sun first enters a solid, and
+        // the solids' field at the layer before.
+        let solids = level.has_solid();
+        let mut entry = vec![f32::NAN; if solids { columns } else { 0 }];
+        let mut field_before = vec![0.0f32; entry.len()];
+        let mut z_before = f32::NAN;
         let mut sweep = |z: f32, layer: usize, weight: [f32; 2]| {
             slice.fill(z / fine);
             // Column `(ia, ib)` crosses the plane `z` at `q + shift z` fine cells across.
@@ -279,15 +291,34 @@ impl Grid {
                 let v = Tap::new((across[1] + ib as f32) / fine, nb);
                 let row = ib * dims[0]..(ib + 1) * dims[0];
                 let cells = taps.iter().zip(&mut sum[row.clone()]);
-                for (((u, sum), before), depth) in
-                    cells.zip(&mut before[row.clone()]).zip(&mut layer[row])
+                for (((u, sum), before), depth) in cells
+                    .zip(&mut before[row.clone()])
+                    .zip(&mut layer[row.clone()])
                 {
                     let s = slice.at_taps(*u, v);
                     *sum += (weight[0] * s + weight[1] * *before) * step;
                     *before = s;
                     *depth = *sum;
                 }
+                if solids {
+                    for (ia, u) in taps.iter().enumerate() {
+                        let c = row.start + ia;
+                        let f = slice.solid_at_taps(*u, v);
+                        if entry[c].is_nan() && f >= SOLID_LEVEL {
+                            // Where the field crosses the level between this layer and the
+                            // one before (linear along the column, as it nearly is).
+                            entry[c] = if z_before.is_nan() {
+                                z
+                            } else {
+                                let u = (SOLID_LEVEL - field_before[c]) / (f - field_before[c]);
+                                z_before + (z - z_before) * u.clamp(0.0, 1.0)
+                            };
+                        }
+                        field_before[c] = f;
+                    }
+                }
             }
+            z_before = z;
         };
         // The trapezoid rule: the sunward layer adds half a layer of its own (the distance to
         // the grid's face), each later one the mean of it and the one before, and the face a
@@ -330,6 +361,7 @@ impl Grid {
             depth: blocked.into(),
             blocks,
             unit,
+            solid_entry: entry.into(),
         }
     }
 
@@ -359,6 +391,21 @@ impl Grid {
         ];
         let [(x0, x1, fx), (y0, y1, fy), (z0, z1, fz)] =
             std::array::from_fn(|i| clamped_axis(x[i], self.dims[i]));
+        let lit = if self.solid_entry.is_empty() {
+            1.0
+        } else {
+            // The share of the four columns around `p` in whose solid's shadow it is not.
+            let open = |x: usize, y: usize| {
+                let e = self.solid_entry[x + self.dims[0] * y];
+                let shadowed = if self.sunward_high { z < e } else { z > e };
+                if shadowed { 0.0 } else { 1.0 }
+            };
+            let row = |y: usize| open(x0, y) * (1.0 - fx) + open(x1, y) * fx;
+            row(y0) * (1.0 - fy) + row(y1) * fy
+        };
+        if lit <= 0.0 {
+            return f32::INFINITY;
+        }
         let d = &self.depth;
         let layer = |z: usize| {
             let at = |x: usize, y: usize| f32::from(d[place(self.blocks, x, y, z)]);
@@ -376,23 +423,24 @@ impl Grid {
         } else {
             None
         };
-        self.unit
-            * match beyond {
-                None => layer(z0) * (1.0 - fz) + layer(z1) * fz,
-                Some((low, edge, u)) => {
-                    let at_edge = layer(edge);
-                    let face = if low != self.sunward_high {
-                        0.0
-                    } else {
-                        layer(n)
-                    };
-                    at_edge + (face - at_edge) * u.min(1.0)
+        -lit.ln()
+            + self.unit
+                * match beyond {
+                    None => layer(z0) * (1.0 - fz) + layer(z1) * fz,
+                    Some((low, edge, u)) => {
+                        let at_edge = layer(edge);
+                        let face = if low != self.sunward_high {
+                            0.0
+                        } else {
+                            layer(n)
+                        };
+                        at_edge + (face - at_edge) * u.min(1.0)
+                    }
                 }
-            }
     }
 
     pub(super) fn bytes(&self) -> usize {
-        std::mem::size_of_val(&self.depth[..])
+        std::mem::size_of_val(&self.depth[..]) + std::mem::size_of_val(&self.solid_entry[..])
     }
 }
 
@@ -416,6 +464,9 @@ struct Slice<'l> {
     scale: f32,
     foliage: f32,
     values: Vec<f32>,
+    /// The solids' field `solid_wood + foliage solid_foliage` in the plane; empty where the
+    /// level has none.
+    solid: Vec<f32>,
 }
 
 impl<'l> Slice<'l> {
@@ -427,6 +478,11 @@ impl<'l> Slice<'l> {
             scale,
             foliage,
             values: vec![0.0; level.dims[a] * level.dims[b]],
+            solid: if level.has_solid() {
+                vec![0.0; level.dims[a] * level.dims[b]]
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -450,6 +506,22 @@ impl<'l> Slice<'l> {
                 self.values[ia + n[a] * ib] = (self.scale * e).min(SIGMA_MAX);
             }
         }
+        if !self.solid.is_empty() {
+            // Read as `Level::solid_parts_at` reads them: 0 beyond the cells.
+            let [wood, foliage] = &self.level.solid;
+            let [(k0, w0), (k1, w1)] = padded_axis(z, n[k]);
+            let field = |ia: usize, ib: usize, ik: usize| {
+                let mut c = [0; 3];
+                (c[a], c[b], c[k]) = (ia, ib, ik);
+                let i = self.level.index(c[0], c[1], c[2]);
+                wood[i] + self.foliage * foliage[i]
+            };
+            for ib in 0..n[b] {
+                for ia in 0..n[a] {
+                    self.solid[ia + n[a] * ib] = field(ia, ib, k0) * w0 + field(ia, ib, k1) * w1;
+                }
+            }
+        }
     }
 
     /// Level cells across `a` and `b`.
@@ -471,10 +543,31 @@ impl<'l> Slice<'l> {
         if !(u.inside && v.inside) {
             return 0.0;
         }
+        self.bilinear(&self.values, u, v)
+    }
+
+    /// The solids' field where the taps read it (0 off the slice, and where the level has
+    /// none).
+    #[inline]
+    fn solid_at_taps(&self, u: Tap, v: Tap) -> f32 {
+        if self.solid.is_empty() || !(u.inside && v.inside) {
+            return 0.0;
+        }
+        let na = self.dims()[0];
+        let mut sum = 0.0;
+        for (iv, wv) in v.padded {
+            for (iu, wu) in u.padded {
+                sum += self.solid[iu + na * iv] * wu * wv;
+            }
+        }
+        sum
+    }
+
+    #[inline]
+    fn bilinear(&self, values: &[f32], u: Tap, v: Tap) -> f32 {
         let na = self.dims()[0];
         let row = |iv: usize| {
-            self.values[u.low + na * iv] * (1.0 - u.weight)
-                + self.values[u.high + na * iv] * u.weight
+            values[u.low + na * iv] * (1.0 - u.weight) + values[u.high + na * iv] * u.weight
         };
         row(v.low) * (1.0 - v.weight) + row(v.high) * v.weight
     }
@@ -488,6 +581,9 @@ struct Tap {
     high: usize,
     weight: f32,
     inside: bool,
+    /// The cells and weights with the field 0 beyond the cells ([`padded_axis`]), as the
+    /// solids are read.
+    padded: [(usize, f32); 2],
 }
 
 impl Tap {
@@ -499,6 +595,7 @@ impl Tap {
             high,
             weight,
             inside: x >= 0.0 && x <= n as f32,
+            padded: padded_axis(x, n),
         }
     }
 }

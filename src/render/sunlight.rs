@@ -19,6 +19,10 @@ pub struct OwnTree {
     pub instance: u32,
     pub level: usize,
     pub factor: f32,
+    /// Marched even where shadows are cached, its solid left out for the first cell: a ray
+    /// leaving a solid's surface, whose own tree's grid of depths would blur the surface it
+    /// starts on, and whose first cell the smoothed normal it left by may graze again.
+    pub exact: bool,
 }
 
 /// A shadow ray's origin as its march needs it: the footprint (m) the textures are read at,
@@ -76,11 +80,29 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                     depth = f32::INFINITY;
                 }
             } else {
-                let (level, factor) = match own.iter().find(|o| o.instance == i) {
-                    Some(o) => (o.level, o.factor),
-                    None => (level_for(scene, i, footprint, lod_bias), 1.0),
-                };
-                depth += factor * scene.sun_depth.depth(scene, i, level, &ray);
+                match own.iter().find(|o| o.instance == i) {
+                    Some(o) if o.exact => {
+                        let local = scene.instances.get(i).local_ray(&ray);
+                        if let Some((enter, exit)) =
+                            scene.instances.local_interval(i, &local, t_max)
+                        {
+                            let a = own_active(scene, i, &local, exit, o);
+                            depth = marched(
+                                scene,
+                                &a,
+                                (enter, exit),
+                                (march, march_key),
+                                (depth, opaque),
+                                a.step,
+                            );
+                        }
+                    }
+                    Some(o) => depth += o.factor * scene.sun_depth.depth(scene, i, o.level, &ray),
+                    None => {
+                        let level = level_for(scene, i, footprint, lod_bias);
+                        depth += scene.sun_depth.depth(scene, i, level, &ray);
+                    }
+                }
             }
             // Stops the traversal once nothing further can make the light visible.
             depth <= opaque
@@ -99,62 +121,95 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
             }
             let own = own.iter().find(|o| o.instance == i);
             let (enter, exit) = scene.instances.local_interval(i, local, t_max)?;
-            let a = match own {
-                // The own tree's extinction times its self-shadowing factor.
+            let (a, clear) = match own {
                 Some(o) => {
-                    let a = Active::at_level(scene, i, local, exit, o.level);
-                    Active {
-                        sigma_scale: (a.sigma_scale * o.factor).min(SIGMA_MAX),
-                        ..a
-                    }
+                    let a = own_active(scene, i, local, exit, o);
+                    (a, if o.exact { a.step } else { 0.0 })
                 }
-                None => Active::new(scene, i, local, exit, footprint, lod_bias),
+                None => (Active::new(scene, i, local, exit, footprint, lod_bias), 0.0),
             };
-            let look = &scene.looks[scene.instances.get(i).look as usize];
-            let level = &scene.texels[look.texel].levels[a.level];
-            let occupancy = &scene.occupancy[look.texel][a.level];
-            let foliage = look.foliage;
-            let length = a.step * march.step;
-            let mut t = enter;
-            let mut segment = 0u64;
-            // Up to where the march need not look at the bricks again (empty ones are jumped
-            // over; segments run on across occupied ones as they would without bricks).
-            let mut looked = t;
-            while t < exit {
-                if t >= looked {
-                    let (occupied, until) = occupancy.span(a.c0, a.dc, t, exit);
-                    // Whole segments that lie in empty bricks are jumped over, with their draws:
-                    // the segments and samples left are exactly those of a march that skips
-                    // nothing, so the estimate is unchanged, only cheaper.
-                    let empty = floor((until - t) / length);
-                    if !occupied && empty >= 1.0 {
-                        t += empty * length;
-                        segment += empty as u64;
-                        continue;
-                    }
-                    // At t's precision no progress: march the rest of the box plainly.
-                    looked = if until > t { until } else { exit };
-                }
-                // A step below t's precision would never advance: take the rest in one.
-                let end = if t + length > t {
-                    (t + length).min(exit)
-                } else {
-                    exit
-                };
-                let ts =
-                    t + rng::unit(rng::hash3(march_key, u64::from(i), segment)) as f32 * (end - t);
-                let d = occupancy.stencils.density_at(level, a.c0 + a.dc * ts);
-                depth += a.extinction(d[0] + foliage * d[1]) * (end - t);
-                if depth > opaque {
-                    // Stops the traversal: nothing further can make the light visible.
-                    return Some(0.0);
-                }
-                segment += 1;
-                t = end;
-            }
-            None
+            depth = marched(
+                scene,
+                &a,
+                (enter, exit),
+                (march, march_key),
+                (depth, opaque),
+                clear,
+            );
+            // Stops the traversal where nothing further can make the light visible.
+            (depth > opaque).then_some(0.0)
         });
     if depth > opaque { 0.0 } else { (-depth).exp() }
+}
+
+/// A tree the shadow ray's sample lies in, at its level, its extinction times its
+/// self-shadowing factor.
+fn own_active(scene: &Scene, i: u32, local: &Ray, exit: f32, o: &OwnTree) -> Active {
+    let a = Active::at_level(scene, i, local, exit, o.level);
+    Active {
+        sigma_scale: (a.sigma_scale * o.factor).min(SIGMA_MAX),
+        ..a
+    }
+}
+
+/// `depth` plus the optical depth of the tree `a` between `enter` and `exit` along the ray,
+/// by a jittered march (the draws of `march_key`); stops adding once past `opaque`, and is
+/// infinite where a sample lies inside a solid (from `clear` along the ray on).
+fn marched(
+    scene: &Scene,
+    a: &Active,
+    (enter, exit): (f32, f32),
+    (march, march_key): (&March, u64),
+    (mut depth, opaque): (f32, f32),
+    clear: f32,
+) -> f32 {
+    let i = a.instance;
+    let look = &scene.looks[scene.instances.get(i).look as usize];
+    let level = &scene.texels[look.texel].levels[a.level];
+    let occupancy = &scene.occupancy[look.texel][a.level];
+    let foliage = look.foliage;
+    let solid = level.has_solid();
+    let length = a.step * march.step;
+    let mut t = enter;
+    let mut segment = 0u64;
+    // Up to where the march need not look at the bricks again (empty ones are jumped
+    // over; segments run on across occupied ones as they would without bricks).
+    let mut looked = t;
+    while t < exit {
+        if t >= looked {
+            let (occupied, until) = occupancy.span(a.c0, a.dc, t, exit);
+            // Whole segments that lie in empty bricks are jumped over, with their draws:
+            // the segments and samples left are exactly those of a march that skips
+            // nothing, so the estimate is unchanged, only cheaper.
+            let empty = floor((until - t) / length);
+            if !occupied && empty >= 1.0 {
+                t += empty * length;
+                segment += empty as u64;
+                continue;
+            }
+            // At t's precision no progress: march the rest of the box plainly.
+            looked = if until > t { until } else { exit };
+        }
+        // A step below t's precision would never advance: take the rest in one.
+        let end = if t + length > t {
+            (t + length).min(exit)
+        } else {
+            exit
+        };
+        let ts = t + rng::unit(rng::hash3(march_key, u64::from(i), segment)) as f32 * (end - t);
+        let c = a.c0 + a.dc * ts;
+        if solid && ts >= clear && level.in_solid(c, foliage) {
+            return f32::INFINITY;
+        }
+        let d = occupancy.stencils.density_at(level, c);
+        depth += a.extinction(d[0] + foliage * d[1]) * (end - t);
+        if depth > opaque {
+            return depth;
+        }
+        segment += 1;
+        t = end;
+    }
+    depth
 }
 
 /// Which of one ray's samples with a small share cast their shadow ray: the roulette of

@@ -1355,6 +1355,7 @@ fn cached_against_exact(rotations: [f32; 3]) -> (f32, [f64; 2]) {
                 instance: i,
                 level: (k % 2) as usize,
                 factor: 0.6,
+                exact: false,
             })
             .collect();
         let footprint = if k % 4 < 2 { 0.0 } else { 0.6 };
@@ -1529,4 +1530,169 @@ fn a_film_keeps_only_the_layers_its_file_carries() {
         .err()
         .expect("a layer the film did not keep");
     assert!(refused.contains("normal"), "{refused}");
+}
+
+/// A texture holding only a solid: a ball of `radius` metres at the model's origin, its
+/// cells' inside fractions box-filtered (as `bake::solid` measures them), of wood of colour
+/// [`SLAB_ALBEDO`], in a grid of 16 cells of a quarter metre.
+fn solid_ball(radius: f64) -> Texel {
+    let (n, cell) = (16usize, 0.25f64);
+    let origin = DVec3::splat(-2.0);
+    let mut t = uniform_texel([n; 3], cell, origin, 0.0, SLAB_ALBEDO);
+    let l = &mut t.levels[0];
+    let m = 8;
+    let mut solid = vec![0.0f32; n * n * n];
+    for (i, s) in solid.iter_mut().enumerate() {
+        let at = DVec3::new((i % n) as f64, (i / n % n) as f64, (i / (n * n)) as f64);
+        let inside = (0..m * m * m)
+            .filter(|k| {
+                let sub = DVec3::new((k % m) as f64, (k / m % m) as f64, (k / (m * m)) as f64);
+                let p = origin + (at + (sub + 0.5) / m as f64) * cell;
+                p.length() < radius
+            })
+            .count();
+        *s = inside as f32 / (m * m * m) as f32;
+    }
+    l.solid = [solid, vec![0.0; n * n * n]];
+    t.levels = mip_chain(l.clone(), 1.0);
+    t
+}
+
+/// A texture's solid is an opaque surface where the box-filtered inside crosses a half: a
+/// ball seen head-on, lit from 0, 40 and 80 degrees off the line of sight, is where the
+/// sphere is (hit distance within a fifth of a cell), faces as it does (normals within 8
+/// degrees) and is as bright as Lambert's law makes the sphere (within 2 % of the albedo on
+/// average over the disc), with exact shadow rays and with cached ones: the ball does not
+/// shadow its own lit side.
+#[test]
+fn a_solid_ball_shades_as_the_sphere_it_holds() {
+    let radius = 1.3f32;
+    let eye = Vec3::new(0.0, 0.0, 10.0);
+    for degrees in [0.0f32, 40.0, 80.0] {
+        let a = degrees.to_radians();
+        let sun = Sun {
+            direction: Vec3::new(a.sin(), 0.0, a.cos()),
+            irradiance: std::f32::consts::PI,
+        };
+        let scene = Scene::new(
+            eye.as_dvec3(),
+            vec![solid_ball(f64::from(radius))],
+            vec![look()],
+            &[placed(DVec3::ZERO)],
+            None,
+            Lighting {
+                sun,
+                shading: PLAIN,
+                sky: None,
+            },
+        );
+        for shadows in [ShadowRays::Exact, ShadowRays::Cached] {
+            let march = March {
+                shadows,
+                ..March::default()
+            };
+            let (mut error, mut count) = (0.0f64, 0);
+            for (k, (i, j)) in (0..15)
+                .flat_map(|i| (0..15).map(move |j| (i, j)))
+                .enumerate()
+            {
+                let target = Vec3::new(i as f32 - 7.0, j as f32 - 7.0, 0.0) * (0.8 * radius / 7.0);
+                if target.length() > 0.8 * radius {
+                    continue;
+                }
+                let dir = (target - eye).normalize();
+                // The ray from the eye (the frame's origin) meets the sphere about `-eye`.
+                let b = dir.dot(eye);
+                let t = -b - (b * b - eye.length_squared() + radius * radius).sqrt();
+                let normal = (eye + dir * t).normalize();
+                let r = radiance(&scene, dir, 0.0, k as u64, &march);
+                assert!(r.transmittance == 0.0, "{degrees}: the ray went through");
+                assert!(
+                    (r.distance - t).abs() < 0.05,
+                    "{degrees}: hit at {} against {t}",
+                    r.distance
+                );
+                assert!(
+                    r.normal.dot(normal) > 8f32.to_radians().cos(),
+                    "{degrees}: normal {} against {normal}",
+                    r.normal
+                );
+                let want = SLAB_ALBEDO[0] * normal.dot(sun.direction).max(0.0);
+                error += f64::from(r.rgb[0] - want);
+                count += 1;
+            }
+            let bias = error / f64::from(count);
+            assert!(
+                bias.abs() < 0.02 * f64::from(SLAB_ALBEDO[0]),
+                "sun {degrees} degrees off, {shadows:?} shadows: mean error {bias}"
+            );
+        }
+    }
+}
+
+/// A solid's shadow is sharp: behind a ball lit obliquely, a point's shadow ray through
+/// cached depths (the grid's map of where each column enters a solid) and through an exact
+/// march both find the light stopped exactly where the ray meets the sphere and whole where
+/// it passes by, everywhere but within half a cell of the shadow's edge (where the cached
+/// lookup blends the four columns around it, half a cell apart here).
+#[test]
+fn a_solids_shadow_is_the_spheres_cached_or_exact() {
+    let radius = 1.3f32;
+    let eye = Vec3::new(0.0, 0.0, 10.0);
+    let sun = Sun {
+        direction: Vec3::new(0.3, 0.2, 1.0).normalize(),
+        irradiance: std::f32::consts::PI,
+    };
+    let scene = Scene::new(
+        eye.as_dvec3(),
+        vec![solid_ball(f64::from(radius))],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        None,
+        Lighting {
+            sun,
+            shading: PLAIN,
+            sky: None,
+        },
+    );
+    let mut checked = 0;
+    for (k, (i, j)) in (0..25)
+        .flat_map(|i| (0..25).map(move |j| (i, j)))
+        .enumerate()
+    {
+        let p = Vec3::new(i as f32 * 0.2 - 2.4, j as f32 * 0.2 - 2.4, -2.6);
+        // The ray from p towards the sun passes the ball's centre at this distance.
+        let along = (-p).dot(sun.direction);
+        let miss = (-p - sun.direction * along).length();
+        if (miss - radius).abs() < 0.13 || along < 0.0 {
+            continue;
+        }
+        let want = if miss < radius { 0.0 } else { 1.0 };
+        for shadows in [ShadowRays::Cached, ShadowRays::Exact] {
+            let got = transmittance(
+                &scene,
+                Ray {
+                    origin: p - eye,
+                    dir: sun.direction,
+                },
+                f32::INFINITY,
+                &March {
+                    shadows,
+                    ..March::default()
+                },
+                &Caster {
+                    footprint: 0.0,
+                    key: k as u64,
+                    own: &[],
+                    draw: &Draw::Texel,
+                },
+            );
+            assert!(
+                (got - want).abs() < 1e-3,
+                "{shadows:?}: {p} passes the centre at {miss}: light {got}"
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked > 300, "{checked}");
 }
