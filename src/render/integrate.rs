@@ -403,18 +403,28 @@ fn scatter(
             // Only for a shadow ray actually cast: the roulette skips most.
             let mut own = [OwnTree::default(); MAX_OWN];
             let mut n = 0;
-            if foliage_scatters {
-                let cos_g = (-dir).dot(sun.direction);
-                for a in active.iter().take(MAX_OWN) {
-                    let texel = scene.texel_of(a.instance);
-                    own[n] = OwnTree {
-                        instance: a.instance,
-                        level: a.level,
-                        factor: texel.levels[a.level].self_shadow_at(cos_g),
-                        exact: false,
-                    };
-                    n += 1;
+            let cos_g = (-dir).dot(sun.direction);
+            for a in active.iter().take(MAX_OWN) {
+                let level = &scene.texel_of(a.instance).levels[a.level];
+                // A tree with solids: what of them its level set leaves out (a rim thinner
+                // than a cell) is density on the solid's surface, lit as the surface is, not
+                // shadowed by the solid it lies on; so its own tree is marched, the solid
+                // left out for the first cell, as a solid's surface's own shadow ray is.
+                let solid = level.has_solid();
+                if !(foliage_scatters || solid) {
+                    continue;
                 }
+                own[n] = OwnTree {
+                    instance: a.instance,
+                    level: a.level,
+                    factor: if foliage_scatters {
+                        level.self_shadow_at(cos_g)
+                    } else {
+                        1.0
+                    },
+                    exact: solid,
+                };
+                n += 1;
             }
             let caster = Caster {
                 footprint: s.footprint,
