@@ -203,14 +203,15 @@ impl Level {
             || (self.has_solid() && (self.solid[0][i] != 0.0 || self.solid[1][i] != 0.0))
     }
 
-    /// The solids' field `[wood, foliage]` at `c` (cell units from the grid origin); zeros
-    /// outside the grid and where the level has no solid.
+    /// The solids' field `[wood, foliage]` at `c` (cell units from the grid origin), read with
+    /// empty cells around the grid ([`padded_axis`]); zeros outside the grid (and at a
+    /// non-finite point) and where the level has no solid.
     #[inline]
     pub fn solid_parts_at(&self, c: Vec3) -> [f32; 2] {
         if !self.has_solid() {
             return [0.0; 2];
         }
-        if !c.is_finite() {
+        if !inside(c, self.dims) {
             return [0.0; 2];
         }
         let [x, y, z] = [0, 1, 2].map(|a| padded_axis(c[a], self.dims[a]));

@@ -1,8 +1,11 @@
 //! `bake`: a polygon tree becomes a 3D texture (the paper's section 2).
 //!
 //! The passes, in order: fit the grid over the model, classify triangles (foliage or wood, open
-//! or closed), scan along the three axes, turn what the rays saw into density and albedo per
-//! texture cell, take Sobel gradients, and build the mip chain.
+//! or closed, thick closed parts apart), scan along the three axes, turn what the rays saw into
+//! density and albedo per texture cell, take Sobel gradients, and build the mip chain; where the
+//! model has thick closed parts, again with those parts as solids over the density of the rest
+//! (`bake::solid`), kept on the levels that hold their shape; then fit each level's
+//! directional form, self-shadowing and wood weight to the mesh.
 
 mod calibrate;
 mod classify;

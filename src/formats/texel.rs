@@ -602,11 +602,12 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
     })
 }
 
+/// Where the reader finds its channels: the required ones, the leaf moments, the solids.
+type Slots = (Vec<usize>, Option<usize>, Option<[usize; 2]>);
+
 /// Where each channel the reader uses sits in the header's table: the six required ones (in
 /// [`v1_channels`] order), each checked for its layout, (1.2) the optional leaf moments and
 /// (1.3) the optional solids, both parts or neither.
-type Slots = (Vec<usize>, Option<usize>, Option<[usize; 2]>);
-
 fn channel_slots(header: &Header) -> Result<Slots, TexelError> {
     let find = |name: &str| header.channels.iter().position(|ch| ch.name == name);
     let layout = |i: usize, want: &ChannelHeader| {

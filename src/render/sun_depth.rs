@@ -19,6 +19,12 @@
 //! memory by [`MEMORY_BOUND`]: with many species the turns are fewer. Species told apart
 //! only by colour share grids.
 //!
+//! A level with solids (`bake::solid`) keeps, beside the depths, where each column first
+//! enters a solid: a shadow map, the opaque part of a deep shadow map (Lokovic and Veach
+//! 2000). A lookup past that point in its columns is in the solid's shadow, blended over the
+//! four columns around it; depths through a solid, interpolated between columns, would darken
+//! a column's width around every solid's shadow.
+//!
 //! What it changes against `--shadows exact` (a jittered march, unbiased, noisy): no noise in
 //! the depth, and with it none of the brightening exp(-depth) takes from a noisy depth; a
 //! lookup interpolated between columns (a few percent of a tree's depth at most, no bias to

@@ -19,9 +19,11 @@ pub struct OwnTree {
     pub instance: u32,
     pub level: usize,
     pub factor: f32,
-    /// Marched even where shadows are cached, its solid left out for the first cell: a ray
-    /// leaving a solid's surface, whose own tree's grid of depths would blur the surface it
-    /// starts on, and whose first cell the smoothed normal it left by may graze again.
+    /// Marched even where shadows are cached, its solid left out for the first cell: the tree
+    /// of a ray leaving a solid's surface, whose grid of depths would blur the surface the
+    /// ray starts on and whose first cell the smoothed normal it left by may graze again, and
+    /// of any sample of a tree with solids, which lies on a solid's surface where the level
+    /// set left a rim out as density.
     pub exact: bool,
 }
 
