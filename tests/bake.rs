@@ -336,6 +336,26 @@ fn a_thick_closed_crown_is_baked_as_a_solid() {
     let o = run(&["inspect", "x.texel"], dir.path());
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("texel 1.3") && out.contains("solids"), "{out}");
+    // A fine grid too large for the solids' vote (2^25 fine cells) keeps them as density.
+    let o = run(
+        &[
+            "bake",
+            "x.gltf",
+            "-o",
+            "y.texel",
+            "--resolution",
+            "16",
+            "--fine",
+            "1024",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&run(&["inspect", "y.texel"], dir.path()).stdout).to_string();
+    assert!(
+        out.contains("texel 1.2") && !out.contains("solids"),
+        "{out}"
+    );
 }
 
 #[test]

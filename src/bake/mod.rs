@@ -228,7 +228,8 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
         mip_chain(level, extinction_scale)
     };
     let mut levels = with_density(level.clone(), density);
-    if thick.iter().any(|&t| t) {
+    let fine_cells: usize = grid.fine_dims().iter().product();
+    if thick.iter().any(|&t| t) && fine_cells <= solid::MAX_FINE_CELLS {
         // The thick closed parts as solids, the rest as density (`bake::solid`).
         let thin: Vec<bool> = thick.iter().map(|t| !t).collect();
         let thin_scans = scan_all(&model.only(&thin), occupancy);

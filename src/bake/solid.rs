@@ -31,6 +31,12 @@ use crate::volume::{DensityModel, Level};
 /// holds; a thinner one would come out in holes.
 pub const THICK_CELLS: f64 = 2.0;
 
+/// The most fine cells a bake splits solids off in: their inside is the occupancy model's vote
+/// over the three axes' fine cells, which holds three bytes a fine cell (100 MB here; a
+/// `--fine 4096` grid would need 200 GB). Finer bakes keep their thick parts as density, as
+/// bakes did before solids. The default `--fine 256` stays within it.
+pub const MAX_FINE_CELLS: usize = 1 << 25;
+
 /// The least share of a level's solid volume (the sum of its inside fractions) that the level
 /// set must keep for the level to draw solids, and the most it may add: outside these, the
 /// cells are too coarse for the solids' shape.
