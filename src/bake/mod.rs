@@ -440,13 +440,6 @@ fn transmittance_density(grid: &Grid, scans: &[AxisScan]) -> [Vec<f32>; 2] {
 fn occupancy_density(grid: &Grid, scans: &[AxisScan]) -> [Vec<f32>; 2] {
     use scan::{INSIDE_ALL, INSIDE_WOOD, SURFACE_ALL, SURFACE_WOOD};
     let k = grid.k;
-    let fine = grid.fine_dims();
-    let fine_index = |a: usize, f: [usize; 3]| -> usize {
-        let (u, v) = ((a + 1) % 3, (a + 2) % 3);
-        let column = f[u] / k + grid.dims[u] * (f[v] / k);
-        let ray = f[u] % k + k * (f[v] % k);
-        (column * k * k + ray) * fine[a] + f[a]
-    };
     let per_cell: Vec<[f32; 2]> = cells(grid)
         .collect::<Vec<_>>()
         .par_iter()
@@ -456,7 +449,7 @@ fn occupancy_density(grid: &Grid, scans: &[AxisScan]) -> [Vec<f32>; 2] {
                 for fy in c[1] * k..(c[1] + 1) * k {
                     for fx in c[0] * k..(c[0] + 1) * k {
                         let f = [fx, fy, fz];
-                        let bits = [0, 1, 2].map(|a| scans[a].fine[fine_index(a, f)]);
+                        let bits = scan::fine_bits(grid, scans, f);
                         let any = |m: u8| bits.iter().any(|b| b & m != 0);
                         let votes = |m: u8| bits.iter().filter(|b| *b & m != 0).count();
                         let all = any(SURFACE_ALL) || votes(INSIDE_ALL) >= 2;

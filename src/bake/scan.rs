@@ -129,6 +129,18 @@ struct Column {
     fine: Vec<u8>,
 }
 
+/// The bits (`INSIDE_*`, `SURFACE_*`) the three axes' scans (made with occupancy) hold for
+/// the fine cell `f`, along x, y and z: where each axis's layout of [`AxisScan::fine`] keeps it.
+pub fn fine_bits(grid: &Grid, scans: &[AxisScan], f: [usize; 3]) -> [u8; 3] {
+    let (k, fine) = (grid.k, grid.fine_dims());
+    [0, 1, 2].map(|a| {
+        let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+        let column = f[u] / k + grid.dims[u] * (f[v] / k);
+        let ray = f[u] % k + k * (f[v] % k);
+        scans[a].fine[(column * k * k + ray) * fine[a] + f[a]]
+    })
+}
+
 /// Scans along `axis` (0 = x, 1 = y, 2 = z).
 pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> AxisScan {
     let grid = &model.grid;

@@ -20,7 +20,7 @@
 use glam::DVec3;
 
 use super::grid::Grid;
-use super::scan::{AxisScan, INSIDE_ALL, INSIDE_WOOD};
+use super::scan::{AxisScan, INSIDE_ALL, INSIDE_WOOD, fine_bits};
 use crate::import::Mesh;
 use crate::volume::{DensityModel, Level};
 
@@ -96,16 +96,9 @@ pub struct Split {
 /// two-of-three vote of the occupancy model, without its surface cells.
 pub fn split(grid: &Grid, scans: &[AxisScan]) -> Split {
     let k = grid.k;
-    let fine = grid.fine_dims();
-    let fine_index = |a: usize, f: [usize; 3]| -> usize {
-        let (u, v) = ((a + 1) % 3, (a + 2) % 3);
-        let column = f[u] / k + grid.dims[u] * (f[v] / k);
-        let ray = f[u] % k + k * (f[v] % k);
-        (column * k * k + ray) * fine[a] + f[a]
-    };
     // Per fine cell: 0 outside, 1 inside wood, 2 inside foliage.
     let part = |f: [usize; 3]| -> u8 {
-        let bits = [0, 1, 2].map(|a| scans[a].fine[fine_index(a, f)]);
+        let bits = fine_bits(grid, scans, f);
         let votes = |m: u8| bits.iter().filter(|b| *b & m != 0).count();
         if votes(INSIDE_WOOD) >= 2 {
             1

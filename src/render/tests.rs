@@ -1558,6 +1558,22 @@ fn solid_ball(radius: f64) -> Texel {
     t
 }
 
+/// [`solid_ball`] of `radius` at the origin, seen from `eye`, lit by `sun` with plain shading.
+fn ball_scene(radius: f32, eye: Vec3, sun: Sun) -> Scene {
+    Scene::new(
+        eye.as_dvec3(),
+        vec![solid_ball(f64::from(radius))],
+        vec![look()],
+        &[placed(DVec3::ZERO)],
+        None,
+        Lighting {
+            sun,
+            shading: PLAIN,
+            sky: None,
+        },
+    )
+}
+
 /// A texture's solid is an opaque surface where the box-filtered inside crosses a half: a
 /// ball seen head-on, lit from 0, 40 and 80 degrees off the line of sight, is where the
 /// sphere is (hit distance within a fifth of a cell), faces as it does (normals within 8
@@ -1574,18 +1590,7 @@ fn a_solid_ball_shades_as_the_sphere_it_holds() {
             direction: Vec3::new(a.sin(), 0.0, a.cos()),
             irradiance: std::f32::consts::PI,
         };
-        let scene = Scene::new(
-            eye.as_dvec3(),
-            vec![solid_ball(f64::from(radius))],
-            vec![look()],
-            &[placed(DVec3::ZERO)],
-            None,
-            Lighting {
-                sun,
-                shading: PLAIN,
-                sky: None,
-            },
-        );
+        let scene = ball_scene(radius, eye, sun);
         for shadows in [ShadowRays::Exact, ShadowRays::Cached] {
             let march = March {
                 shadows,
@@ -1643,18 +1648,7 @@ fn a_solids_shadow_is_the_spheres_cached_or_exact() {
         direction: Vec3::new(0.3, 0.2, 1.0).normalize(),
         irradiance: std::f32::consts::PI,
     };
-    let scene = Scene::new(
-        eye.as_dvec3(),
-        vec![solid_ball(f64::from(radius))],
-        vec![look()],
-        &[placed(DVec3::ZERO)],
-        None,
-        Lighting {
-            sun,
-            shading: PLAIN,
-            sky: None,
-        },
-    );
+    let scene = ball_scene(radius, eye, sun);
     let mut checked = 0;
     for (k, (i, j)) in (0..25)
         .flat_map(|i| (0..25).map(move |j| (i, j)))
