@@ -13,6 +13,7 @@ impl Cli {
             triangles: self.max_triangles,
             trees: self.max_trees,
             pixels: self.max_pixels,
+            overlap: self.max_overlap,
         }
     }
 }
@@ -326,6 +327,11 @@ pub struct Cli {
     /// Most pixels one image may have, read or written.
     #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().pixels, value_parser = at_least_one)]
     pub max_pixels: u64,
+    /// Most trees of a forest to render that may stand over one tree's base (within their
+    /// reach across the ground), itself included: a ray inside all their boxes at once pays
+    /// for each, and a hand-made file can pile millions on one spot.
+    #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().overlap, value_parser = at_least_one)]
+    pub max_overlap: u64,
     #[command(subcommand)]
     pub command: Command,
 }

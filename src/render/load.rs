@@ -139,6 +139,7 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
         .map(|s| textures.look(s, request.day))
         .collect::<Result<Vec<_>, _>>()?;
     check_heights(path, &forest, &looks, &textures.texels)?;
+    check_crowding(path, &forest, &looks, &textures.texels, &request.limits)?;
     dependencies.extend(textures.paths.iter().cloned());
     let models = |dependencies: &mut Vec<PathBuf>| {
         Models::check(
@@ -310,6 +311,49 @@ fn check_heights(
                 ),
             });
         }
+    }
+    Ok(())
+}
+
+/// Refuses a forest with more trees over one tree's base than the limit (`render::crowding`),
+/// naming the tree and where it stands.
+fn check_crowding(
+    path: &Path,
+    forest: &instances::Forest,
+    looks: &[Look],
+    texels: &[Texel],
+    limits: &Limits,
+) -> Result<(), LoadError> {
+    // Each species' model's reach about its base, in model units.
+    let reaches: Vec<f64> = looks
+        .iter()
+        .map(|look| {
+            let info = &texels[look.texel].info;
+            let (lo, hi) = (info.model_min, info.model_max);
+            [lo[0], hi[0]]
+                .into_iter()
+                .flat_map(|x| [lo[2], hi[2]].map(|z| x.hypot(z)))
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let trees: Vec<([f64; 2], f64)> = forest
+        .instances
+        .iter()
+        .map(|t| {
+            let reach = reaches[usize::from(t.species)] * f64::from(t.scale);
+            ([t.position[0], t.position[2]], reach)
+        })
+        .collect();
+    if let Some((i, n)) = super::crowding::most_crowded(&trees, limits.overlap) {
+        let [x, _, z] = forest.instances[i].position;
+        let what = format!(
+            "the number of trees standing over the base of tree {i} (x {}, z {} m)",
+            crate::number::number(x, 2),
+            crate::number::number(z, 2)
+        );
+        limits
+            .check_overlap(n, &what)
+            .map_err(|e| file_error(path, e))?;
     }
     Ok(())
 }

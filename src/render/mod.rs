@@ -8,6 +8,7 @@
 
 pub mod camera;
 pub mod camera_path;
+pub mod crowding;
 pub mod edges;
 pub mod film;
 pub mod instances;
