@@ -336,13 +336,17 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     outputs.commit()
 }
 
-/// Escapes a path for a Make rule: spaces and `#` are backslash-escaped, `$` doubled.
+/// Escapes a path for a Make rule: spaces, `#`, `:` and `%` are backslash-escaped, `$`
+/// doubled. GNU make reads an unescaped `:` among the prerequisites as a static pattern rule
+/// ("target pattern contains no '%'") and a `%` in a target as a pattern rule.
 fn make_escape(path: &Path) -> String {
     let mut out = String::new();
     for ch in path.to_string_lossy().chars() {
         match ch {
-            ' ' => out.push_str("\\ "),
-            '#' => out.push_str("\\#"),
+            ' ' | '#' | ':' | '%' => {
+                out.push('\\');
+                out.push(ch);
+            }
             '$' => out.push_str("$$"),
             c => out.push(c),
         }
@@ -402,9 +406,16 @@ mod tests {
     fn depfile_escapes_make_specials() {
         let line = depfile(
             Path::new("out/a.texel"),
-            &[PathBuf::from("my tree.gltf"), PathBuf::from("x$#.bin")],
+            &[
+                PathBuf::from("my tree.gltf"),
+                PathBuf::from("x$#.bin"),
+                PathBuf::from("c:d%e.png"),
+            ],
         );
-        assert_eq!(line, "out/a.texel: my\\ tree.gltf x$$\\#.bin\n");
+        assert_eq!(
+            line,
+            "out/a.texel: my\\ tree.gltf x$$\\#.bin c\\:d\\%e.png\n"
+        );
     }
 
     #[test]

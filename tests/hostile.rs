@@ -879,3 +879,45 @@ fn a_pile_of_trees_on_one_spot_is_refused_by_render() {
     let o = render_pile(&["--max-overlap", "4096"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// A glTF whose nodes draw one mesh many times at one place (within `--max-triangles`) would
+/// have every copy cross every ray of the bake's columns, all held at once: 1,000 copies of a
+/// 1,000-triangle strip took 1.5 GB. The bake refuses it before scanning, naming the file and
+/// the problem, and writes nothing.
+#[test]
+fn a_mesh_piled_on_itself_by_its_nodes_is_refused_by_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let strip: Vec<[f32; 3]> = (0..1002)
+        .map(|i| [i as f32 * 0.01, (i % 2) as f32, (i % 3) as f32 * 0.1])
+        .collect();
+    let bin: Vec<u8> = strip
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let doc = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scenes": [{ "nodes": (0..200).collect::<Vec<_>>() }],
+        "nodes": (0..200).map(|_| serde_json::json!({ "mesh": 0 })).collect::<Vec<_>>(),
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 }, "mode": 5 }] }],
+        "accessors": [{
+            "bufferView": 0, "componentType": 5126, "count": 1002, "type": "VEC3",
+            "min": [0.0, 0.0, 0.0], "max": [10.01, 1.0, 0.2],
+        }],
+        "bufferViews": [{ "buffer": 0, "byteLength": bin.len() }],
+        "buffers": [{ "byteLength": bin.len(), "uri": "pile.bin" }],
+    });
+    std::fs::write(dir.path().join("pile.bin"), &bin).unwrap();
+    std::fs::write(dir.path().join("pile.gltf"), doc.to_string()).unwrap();
+    let o = run(&["bake", "pile.gltf", "-o", "pile.texel"], dir.path());
+    assert_error(
+        &o,
+        &[
+            "pile.gltf",
+            "holds 200000 triangles",
+            "over the limit of 4194304",
+            "piles surfaces on one spot",
+        ],
+    );
+    assert!(!dir.path().join("pile.texel").exists());
+}

@@ -198,7 +198,7 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     let model = ScanModel::new(mesh, grid, is_foliage, is_closed);
 
     let occupancy = settings.density == DensityModel::Occupancy;
-    let scans = scan_all(&model, occupancy);
+    let scans = scan_all(&model, occupancy)?;
     let rays = (grid.k * grid.k) as f64;
     let mesh_coverage: [f64; 3] = std::array::from_fn(|a| {
         let misses: u64 = scans[a].misses[0].iter().map(|&m| m as u64).sum();
@@ -232,12 +232,12 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     if thick.iter().any(|&t| t) && fine_cells <= solid::MAX_FINE_CELLS {
         // The thick closed parts as solids, the rest as density (`bake::solid`).
         let thin: Vec<bool> = thick.iter().map(|t| !t).collect();
-        let thin_scans = scan_all(&model.only(&thin), occupancy);
+        let thin_scans = scan_all(&model.only(&thin), occupancy)?;
         let mut thin_density = match settings.density {
             DensityModel::Transmittance => transmittance_density(&grid, &thin_scans),
             DensityModel::Occupancy => occupancy_density(&grid, &thin_scans),
         };
-        let split = solid::split(&grid, &scan_all(&model.only(&thick), true));
+        let split = solid::split(&grid, &scan_all(&model.only(&thick), true)?);
         // What of the thick parts their level set leaves out is density, as the rest is.
         for (density, lost) in thin_density.iter_mut().zip(&split.lost) {
             for (d, &f) in density.iter_mut().zip(lost) {
@@ -292,10 +292,11 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     })
 }
 
-fn scan_all(model: &ScanModel, occupancy: bool) -> Vec<AxisScan> {
+fn scan_all(model: &ScanModel, occupancy: bool) -> Result<Vec<AxisScan>, BakeError> {
     (0..3)
         .map(|axis| scan::scan_axis(model, axis, occupancy))
-        .collect()
+        .collect::<Result<_, _>>()
+        .map_err(|e| BakeError::Model(e.to_string()))
 }
 
 /// Which triangles of `mesh` are foliage under the patterns a bake recorded, decided as the
@@ -327,7 +328,7 @@ pub fn axis_extinctions(
         classify::foliage_triangles(mesh, &parts),
         classify::closed_triangles(mesh),
     );
-    let scans = scan_all(&model, false);
+    let scans = scan_all(&model, false)?;
     let enclosed = ((2 * grid.k * grid.k) as f64).ln() / grid.cell;
     let per_axis = [0, 1, 2].map(|a| {
         cells(&grid)

@@ -141,13 +141,56 @@ pub fn fine_bits(grid: &Grid, scans: &[AxisScan], f: [usize; 3]) -> [u8; 3] {
     })
 }
 
+/// Most crossings the rays of one column may collect. They are held at once, 40 bytes each,
+/// by each thread (160 MiB at this bound). A real model's columns hold far fewer: each of its
+/// triangles crosses a few of a column's rays: the fixtures' densest column has 16,186 at most
+/// by the bound [`scan_axis`] checks, the shared real models' 28,467.
+/// A model that draws one mesh many times at one place (a scene whose nodes pile copies of it,
+/// within `--max-triangles`) would have every copy cross every ray of its columns: a thousand
+/// copies of a 1,000-triangle strip took 1.5 GB.
+pub const MAX_COLUMN_CROSSINGS: u64 = 1 << 22;
+
+/// A column whose rays would collect more than [`MAX_COLUMN_CROSSINGS`] crossings.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "one column of cells along {axis} holds {triangles} triangles, which would cross its \
+     rays up to {crossings} times, over the limit of {MAX_COLUMN_CROSSINGS}: the model piles \
+     surfaces on one spot (a mesh drawn many times at one place?)"
+)]
+pub struct PiledError {
+    pub axis: char,
+    pub triangles: usize,
+    pub crossings: u64,
+}
+
 /// Scans along `axis` (0 = x, 1 = y, 2 = z).
-pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> AxisScan {
+pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> Result<AxisScan, PiledError> {
     let grid = &model.grid;
     let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
     let columns_u = grid.dims[u];
     let columns = columns_u * grid.dims[v];
     let bins = bin_triangles(model, axis);
+    // Before any crossing is kept: at most, each triangle crosses every ray of a column that
+    // its projection's box covers.
+    let (crossings, triangles) = (0..columns)
+        .into_par_iter()
+        .map(|column| {
+            let (cu, cv) = (column % columns_u, column / columns_u);
+            let bound = bins[column]
+                .iter()
+                .map(|&t| rays_covered(model, axis, t, [cu, cv]))
+                .sum::<u64>();
+            (bound, bins[column].len())
+        })
+        .max()
+        .unwrap_or((0, 0));
+    if crossings > MAX_COLUMN_CROSSINGS {
+        return Err(PiledError {
+            axis: ['x', 'y', 'z'][axis],
+            triangles,
+            crossings,
+        });
+    }
     let results: Vec<Column> = (0..columns)
         .into_par_iter()
         .map_init(
@@ -179,7 +222,24 @@ pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> AxisScan {
         scan.leaf_weight.extend_from_slice(&c.leaf_weight);
         scan.fine.extend_from_slice(&c.fine);
     }
-    scan
+    Ok(scan)
+}
+
+/// How many of column `[cu, cv]`'s rays the box of triangle `t`'s projection covers.
+fn rays_covered(model: &ScanModel, axis: usize, t: u32, [cu, cv]: [usize; 2]) -> u64 {
+    let grid = &model.grid;
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let (fine, k) = (grid.fine_dims(), grid.k);
+    let c = &model.corners[t as usize];
+    let span = |d: usize, n: usize, first: usize| {
+        let lo = c[0][d].min(c[1][d]).min(c[2][d]);
+        let hi = c[0][d].max(c[1][d]).max(c[2][d]);
+        ray_range(lo, hi, n).map_or(0, |(a, b)| {
+            let (a, b) = (a.max(first), b.min(first + k - 1));
+            if a <= b { (b - a + 1) as u64 } else { 0 }
+        })
+    };
+    span(u, fine[u], cu * k) * span(v, fine[v], cv * k)
 }
 
 /// Triangles whose projection covers at least one ray of each column.
