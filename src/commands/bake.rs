@@ -9,6 +9,7 @@ use texel_forest::bake::{self, BakeSettings};
 use texel_forest::formats::texel;
 use texel_forest::import;
 use texel_forest::limits::Limits;
+use texel_forest::number::number;
 use texel_forest::output::{Outputs, depfile};
 use texel_forest::volume::DensityModel;
 
@@ -73,7 +74,7 @@ pub fn run(args: &BakeArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> 
     if !quiet {
         let l = &baked.levels[0];
         super::summary(&format!(
-            "baked {} ({} triangles, {} foliage) -> {} {}x{}x{} cells of {:.3} m, {} levels, {}, {:.1} KiB in {:.2} s",
+            "baked {} ({} triangles, {} foliage) -> {} {}x{}x{} cells of {} m, {} levels, {}, {:.1} KiB in {:.2} s",
             args.input.display(),
             baked.info.triangles,
             baked.info.foliage_triangles,
@@ -81,7 +82,7 @@ pub fn run(args: &BakeArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> 
             l.dims[0],
             l.dims[1],
             l.dims[2],
-            l.cell,
+            number(l.cell, 3),
             baked.levels.len(),
             baked.info.density_model.name(),
             size as f64 / 1024.0,
