@@ -33,9 +33,9 @@ impl Default for Limits {
             trees: 1 << 24,
             // 268 million: 16k x 16k.
             pixels: 1 << 28,
-            // `place`'s forests have a few (the demo's at most 9); a grove planted a metre
-            // apart with crowns 10 m across about 300; a pile of 1,024 trees on one spot
-            // makes a pixel that sees it cost about 40 microseconds more.
+            // `place`'s forests have a few dozen at most (the demo's 31); trees a metre apart in
+            // boxes 10 m across about 160; a pile of 1,024 trees on one spot makes a pixel
+            // that sees it cost about 40 microseconds more.
             overlap: 1 << 10,
         }
     }

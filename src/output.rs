@@ -336,20 +336,27 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     outputs.commit()
 }
 
-/// Escapes a path for a Make rule: spaces, `#`, `:` and `%` are backslash-escaped, `$`
-/// doubled. GNU make reads an unescaped `:` among the prerequisites as a static pattern rule
-/// ("target pattern contains no '%'") and a `%` in a target as a pattern rule.
-fn make_escape(path: &Path) -> String {
+/// Escapes a path for a Make rule (GNU make, as gcc writes them): spaces, `#` and `:` are
+/// backslash-escaped, a backslash before one of them doubled, `$` doubled; in a target, `%`
+/// too. An unescaped `:` among the prerequisites reads as a static pattern rule ("target
+/// pattern contains no '%'") and a `%` in a target as a pattern rule; an escaped `%` among
+/// the prerequisites keeps its backslash.
+fn make_escape(path: &Path, target: bool) -> String {
+    let text = path.to_string_lossy();
     let mut out = String::new();
-    for ch in path.to_string_lossy().chars() {
+    let mut backslashes = 0;
+    for ch in text.chars() {
+        let special = matches!(ch, ' ' | '#' | ':') || (target && ch == '%');
+        if special {
+            // The backslashes before it stand for themselves: doubled, then the escape.
+            out.extend(std::iter::repeat_n('\\', backslashes));
+            out.push('\\');
+        }
         match ch {
-            ' ' | '#' | ':' | '%' => {
-                out.push('\\');
-                out.push(ch);
-            }
             '$' => out.push_str("$$"),
             c => out.push(c),
         }
+        backslashes = if ch == '\\' { backslashes + 1 } else { 0 };
     }
     out
 }
@@ -361,11 +368,11 @@ pub fn depfile(target: &Path, dependencies: &[PathBuf]) -> String {
 
 /// [`depfile`] of several targets made by one run (a frame sequence): `a b c: dep dep ...`.
 pub fn depfile_for(targets: &[&Path], dependencies: &[PathBuf]) -> String {
-    let names: Vec<String> = targets.iter().map(|t| make_escape(t)).collect();
+    let names: Vec<String> = targets.iter().map(|t| make_escape(t, true)).collect();
     let mut line = format!("{}:", names.join(" "));
     for d in dependencies {
         line.push(' ');
-        line.push_str(&make_escape(d));
+        line.push_str(&make_escape(d, false));
     }
     line.push('\n');
     line
@@ -405,16 +412,17 @@ mod tests {
     #[test]
     fn depfile_escapes_make_specials() {
         let line = depfile(
-            Path::new("out/a.texel"),
+            Path::new("out/a%b.texel"),
             &[
                 PathBuf::from("my tree.gltf"),
                 PathBuf::from("x$#.bin"),
                 PathBuf::from("c:d%e.png"),
+                PathBuf::from("r\\ s.png"),
             ],
         );
         assert_eq!(
             line,
-            "out/a.texel: my\\ tree.gltf x$$\\#.bin c\\:d\\%e.png\n"
+            "out/a\\%b.texel: my\\ tree.gltf x$$\\#.bin c\\:d%e.png r\\\\\\ s.png\n"
         );
     }
 

@@ -915,7 +915,7 @@ fn a_mesh_piled_on_itself_by_its_nodes_is_refused_by_bake() {
         &[
             "pile.gltf",
             "holds 200000 triangles",
-            "over the limit of 4194304",
+            "over the limit of 65536",
             "piles surfaces on one spot",
         ],
     );

@@ -141,21 +141,23 @@ pub fn fine_bits(grid: &Grid, scans: &[AxisScan], f: [usize; 3]) -> [u8; 3] {
     })
 }
 
-/// Most crossings the rays of one column may collect. They are held at once, 40 bytes each,
-/// by each thread (160 MiB at this bound). A real model's columns hold far fewer: each of its
-/// triangles crosses a few of a column's rays: the fixtures' densest column has 16,186 at most
-/// by the bound [`scan_axis`] checks, the shared real models' 28,467.
-/// A model that draws one mesh many times at one place (a scene whose nodes pile copies of it,
-/// within `--max-triangles`) would have every copy cross every ray of its columns: a thousand
-/// copies of a 1,000-triangle strip took 1.5 GB.
-pub const MAX_COLUMN_CROSSINGS: u64 = 1 << 22;
+/// Most crossings one ray may have, on average over the rays of a column. A column's rays
+/// collect their crossings all at once, 40 bytes each, in each thread: at the default 8 x 8
+/// rays a column, this bound holds a column to 4.2 million (160 MiB, up to twice that while
+/// its lists grow). A real model's rays cross far fewer surfaces: the fixtures' densest column
+/// averages 253 per ray by the bound [`scan_axis`] checks, the shared real models' 445. A
+/// model that draws one mesh many times at one place (a scene whose nodes pile copies of it,
+/// within `--max-triangles`) has every copy cross every ray there: a thousand copies of a
+/// 1,000-triangle strip took 1.5 GB. Finer rays (`--fine` over `--resolution`) hold more
+/// crossings a column, as the settings ask.
+pub const MAX_RAY_CROSSINGS: u64 = 1 << 16;
 
-/// A column whose rays would collect more than [`MAX_COLUMN_CROSSINGS`] crossings.
+/// A column whose rays would cross more than [`MAX_RAY_CROSSINGS`] surfaces each, on average.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "one column of cells along {axis} holds {triangles} triangles, which would cross its \
-     rays up to {crossings} times, over the limit of {MAX_COLUMN_CROSSINGS}: the model piles \
-     surfaces on one spot (a mesh drawn many times at one place?)"
+    "one column of cells along {axis} holds {triangles} triangles, which could cross each of \
+     its rays {crossings} times on average, over the limit of {MAX_RAY_CROSSINGS}: the model \
+     piles surfaces on one spot (a mesh drawn many times at one place?)"
 )]
 pub struct PiledError {
     pub axis: char,
@@ -184,11 +186,12 @@ pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> Result<Axis
         })
         .max()
         .unwrap_or((0, 0));
-    if crossings > MAX_COLUMN_CROSSINGS {
+    let per_ray = crossings / (grid.k * grid.k) as u64;
+    if per_ray > MAX_RAY_CROSSINGS {
         return Err(PiledError {
             axis: ['x', 'y', 'z'][axis],
             triangles,
-            crossings,
+            crossings: per_ray,
         });
     }
     let results: Vec<Column> = (0..columns)
@@ -225,43 +228,31 @@ pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> Result<Axis
     Ok(scan)
 }
 
-/// How many of column `[cu, cv]`'s rays the box of triangle `t`'s projection covers.
+/// How many of column `[cu, cv]`'s rays the box of triangle `t`'s projection covers (the
+/// rasteriser, snapping corners to 1/256 of a ray's spacing, may take one more at an edge).
 fn rays_covered(model: &ScanModel, axis: usize, t: u32, [cu, cv]: [usize; 2]) -> u64 {
-    let grid = &model.grid;
-    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-    let (fine, k) = (grid.fine_dims(), grid.k);
-    let c = &model.corners[t as usize];
-    let span = |d: usize, n: usize, first: usize| {
-        let lo = c[0][d].min(c[1][d]).min(c[2][d]);
-        let hi = c[0][d].max(c[1][d]).max(c[2][d]);
-        ray_range(lo, hi, n).map_or(0, |(a, b)| {
-            let (a, b) = (a.max(first), b.min(first + k - 1));
-            if a <= b { (b - a + 1) as u64 } else { 0 }
-        })
+    let k = model.grid.k;
+    let Some(rays) = ray_box(model, axis, t) else {
+        return 0;
     };
-    span(u, fine[u], cu * k) * span(v, fine[v], cv * k)
+    let within = |(a, b): (usize, usize), first: usize| {
+        let (a, b) = (a.max(first), b.min(first + k - 1));
+        if a <= b { (b - a + 1) as u64 } else { 0 }
+    };
+    within(rays[0], cu * k) * within(rays[1], cv * k)
 }
 
 /// Triangles whose projection covers at least one ray of each column.
 fn bin_triangles(model: &ScanModel, axis: usize) -> Vec<Vec<u32>> {
     let grid = &model.grid;
     let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-    let fine = grid.fine_dims();
     let k = grid.k;
     let mut bins = vec![Vec::new(); grid.dims[u] * grid.dims[v]];
-    for (t, c) in model.corners.iter().enumerate() {
+    for t in 0..model.corners.len() {
         if !model.drawn[t] {
             continue;
         }
-        let lo_u = c[0][u].min(c[1][u]).min(c[2][u]);
-        let hi_u = c[0][u].max(c[1][u]).max(c[2][u]);
-        let lo_v = c[0][v].min(c[1][v]).min(c[2][v]);
-        let hi_v = c[0][v].max(c[1][v]).max(c[2][v]);
-        // Rays sit at fine-cell centres i + 0.5.
-        let Some((i0, i1)) = ray_range(lo_u, hi_u, fine[u]) else {
-            continue;
-        };
-        let Some((j0, j1)) = ray_range(lo_v, hi_v, fine[v]) else {
+        let Some([(i0, i1), (j0, j1)]) = ray_box(model, axis, t as u32) else {
             continue;
         };
         for cv in j0 / k..=j1 / k {
@@ -271,6 +262,20 @@ fn bin_triangles(model: &ScanModel, axis: usize) -> Vec<Vec<u32>> {
         }
     }
     bins
+}
+
+/// The rays (fine indices along u and v, inclusive) that the box of triangle `t`'s projection
+/// along `axis` covers; `None` where it covers none.
+fn ray_box(model: &ScanModel, axis: usize, t: u32) -> Option<[(usize, usize); 2]> {
+    let fine = model.grid.fine_dims();
+    let c = &model.corners[t as usize];
+    let range = |d: usize| {
+        let lo = c[0][d].min(c[1][d]).min(c[2][d]);
+        let hi = c[0][d].max(c[1][d]).max(c[2][d]);
+        // Rays sit at fine-cell centres i + 0.5.
+        ray_range(lo, hi, fine[d])
+    };
+    Some([range((axis + 1) % 3)?, range((axis + 2) % 3)?])
 }
 
 fn ray_range(lo: f64, hi: f64, n: usize) -> Option<(usize, usize)> {

@@ -324,24 +324,14 @@ fn check_crowding(
     texels: &[Texel],
     limits: &Limits,
 ) -> Result<(), LoadError> {
-    // Each species' model's reach about its base, in model units.
-    let reaches: Vec<f64> = looks
-        .iter()
-        .map(|look| {
-            let info = &texels[look.texel].info;
-            let (lo, hi) = (info.model_min, info.model_max);
-            [lo[0], hi[0]]
-                .into_iter()
-                .flat_map(|x| [lo[2], hi[2]].map(|z| x.hypot(z)))
-                .fold(0.0, f64::max)
-        })
-        .collect();
+    let reaches: Vec<f64> = looks.iter().map(|l| reach(&texels[l.texel])).collect();
+    let origin = forest.info.origin;
     let trees: Vec<([f64; 2], f64)> = forest
         .instances
         .iter()
         .map(|t| {
-            let reach = reaches[usize::from(t.species)] * f64::from(t.scale);
-            ([t.position[0], t.position[2]], reach)
+            let at = [t.position[0] - origin[0], t.position[2] - origin[2]];
+            (at, reaches[usize::from(t.species)] * f64::from(t.scale))
         })
         .collect();
     if let Some((i, n)) = super::crowding::most_crowded(&trees, limits.overlap) {
@@ -356,6 +346,20 @@ fn check_crowding(
             .map_err(|e| file_error(path, e))?;
     }
     Ok(())
+}
+
+/// How far a tree of `texel` reaches from its base across the ground, in model units: to the
+/// farthest corner of the box the renderer draws it in (`Scene::new`: the grid of every level),
+/// whatever the file's recorded model box says.
+fn reach(texel: &Texel) -> f64 {
+    let o = texel.origin();
+    let hi = texel.levels.iter().fold(o, |hi, l| {
+        hi.max(o + DVec3::new(l.dims[0] as f64, l.dims[1] as f64, l.dims[2] as f64) * l.cell)
+    });
+    [o.x, hi.x]
+        .into_iter()
+        .flat_map(|x| [o.z, hi.z].map(|z| x.hypot(z)))
+        .fold(0.0, f64::max)
 }
 
 /// The polygon models the texels were baked from (each texel's first recorded source,
