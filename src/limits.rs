@@ -34,8 +34,8 @@ impl Default for Limits {
             // 268 million: 16k x 16k.
             pixels: 1 << 28,
             // `place`'s forests have a few dozen at most (the demo's 31); trees a metre apart in
-            // boxes 10 m across about 160; a pile of 1,024 trees on one spot makes a pixel
-            // that sees it cost about 40 microseconds more.
+            // boxes 10 m across about 160. A pile of 100,000 trees on one spot took a 64 x 36
+            // render 9 s, about 40 ns a tree for each pixel that sees it.
             overlap: 1 << 10,
         }
     }

@@ -825,6 +825,17 @@ impl Texel {
         DVec3::from(self.info.origin)
     }
 
+    /// The box (model units) the grids of all levels fill, from the origin to the farthest
+    /// far corner: where the renderer draws the tree, whatever the recorded model box says.
+    pub fn grid_box(&self) -> (DVec3, DVec3) {
+        let o = self.origin();
+        let hi = self.levels.iter().fold(o, |hi, l| {
+            let dims = DVec3::new(l.dims[0] as f64, l.dims[1] as f64, l.dims[2] as f64);
+            hi.max(o + dims * l.cell)
+        });
+        (o, hi)
+    }
+
     /// Extinction (1/m) of both parts at model-space point `p` on level `level`, along the
     /// direction `dir` (model space); inside a solid (full foliage), [`SOLID_EXTINCTION`].
     pub fn extinction(&self, level: usize, p: DVec3, dir: DVec3) -> f32 {

@@ -346,27 +346,7 @@ fn small_files_that_claim_much_are_refused_by_the_limits() {
         ],
     );
     // A 40 kB glTF that instances a 1,000-triangle mesh 20,000 times: 20 million triangles.
-    let strip: Vec<[f32; 3]> = (0..1002)
-        .map(|i| [i as f32 * 0.01, (i % 2) as f32, (i % 3) as f32 * 0.1])
-        .collect();
-    let bin: Vec<u8> = strip
-        .iter()
-        .flatten()
-        .flat_map(|v| v.to_le_bytes())
-        .collect();
-    let doc = serde_json::json!({
-        "asset": { "version": "2.0" },
-        "scenes": [{ "nodes": (1..=20_000).collect::<Vec<_>>() }],
-        "nodes": std::iter::once(serde_json::json!({}))
-            .chain((0..20_000).map(|_| serde_json::json!({ "mesh": 0 })))
-            .collect::<Vec<_>>(),
-        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 }, "mode": 5 }] }],
-        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 1002, "type": "VEC3" }],
-        "bufferViews": [{ "buffer": 0, "byteLength": bin.len() }],
-        "buffers": [{ "byteLength": bin.len(), "uri": "bomb.bin" }],
-    });
-    std::fs::write(dir.path().join("bomb.bin"), &bin).unwrap();
-    std::fs::write(dir.path().join("bomb.gltf"), doc.to_string()).unwrap();
+    strip_drawn_by_nodes(dir.path(), "bomb", 20_000);
     let o = run(&["bake", "bomb.gltf", "-o", "bomb.texel"], dir.path());
     assert_error(
         &o,
@@ -887,28 +867,7 @@ fn a_pile_of_trees_on_one_spot_is_refused_by_render() {
 #[test]
 fn a_mesh_piled_on_itself_by_its_nodes_is_refused_by_bake() {
     let dir = tempfile::tempdir().unwrap();
-    let strip: Vec<[f32; 3]> = (0..1002)
-        .map(|i| [i as f32 * 0.01, (i % 2) as f32, (i % 3) as f32 * 0.1])
-        .collect();
-    let bin: Vec<u8> = strip
-        .iter()
-        .flatten()
-        .flat_map(|v| v.to_le_bytes())
-        .collect();
-    let doc = serde_json::json!({
-        "asset": { "version": "2.0" },
-        "scenes": [{ "nodes": (0..200).collect::<Vec<_>>() }],
-        "nodes": (0..200).map(|_| serde_json::json!({ "mesh": 0 })).collect::<Vec<_>>(),
-        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 }, "mode": 5 }] }],
-        "accessors": [{
-            "bufferView": 0, "componentType": 5126, "count": 1002, "type": "VEC3",
-            "min": [0.0, 0.0, 0.0], "max": [10.01, 1.0, 0.2],
-        }],
-        "bufferViews": [{ "buffer": 0, "byteLength": bin.len() }],
-        "buffers": [{ "byteLength": bin.len(), "uri": "pile.bin" }],
-    });
-    std::fs::write(dir.path().join("pile.bin"), &bin).unwrap();
-    std::fs::write(dir.path().join("pile.gltf"), doc.to_string()).unwrap();
+    strip_drawn_by_nodes(dir.path(), "pile", 200);
     let o = run(&["bake", "pile.gltf", "-o", "pile.texel"], dir.path());
     assert_error(
         &o,
@@ -920,4 +879,31 @@ fn a_mesh_piled_on_itself_by_its_nodes_is_refused_by_bake() {
         ],
     );
     assert!(!dir.path().join("pile.texel").exists());
+}
+
+/// `NAME.gltf` and `NAME.bin` in `dir`: a 1,000-triangle strip (10 m long) drawn at one place
+/// by each of `nodes` nodes, all in the scene.
+fn strip_drawn_by_nodes(dir: &Path, name: &str, nodes: usize) {
+    let strip: Vec<[f32; 3]> = (0..1002)
+        .map(|i| [i as f32 * 0.01, (i % 2) as f32, (i % 3) as f32 * 0.1])
+        .collect();
+    let bin: Vec<u8> = strip
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let doc = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scenes": [{ "nodes": (0..nodes).collect::<Vec<_>>() }],
+        "nodes": (0..nodes).map(|_| serde_json::json!({ "mesh": 0 })).collect::<Vec<_>>(),
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 }, "mode": 5 }] }],
+        "accessors": [{
+            "bufferView": 0, "componentType": 5126, "count": 1002, "type": "VEC3",
+            "min": [0.0, 0.0, 0.0], "max": [10.01, 1.0, 0.2],
+        }],
+        "bufferViews": [{ "buffer": 0, "byteLength": bin.len() }],
+        "buffers": [{ "byteLength": bin.len(), "uri": format!("{name}.bin") }],
+    });
+    std::fs::write(dir.join(format!("{name}.bin")), &bin).unwrap();
+    std::fs::write(dir.join(format!("{name}.gltf")), doc.to_string()).unwrap();
 }

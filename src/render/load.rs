@@ -349,16 +349,12 @@ fn check_crowding(
 }
 
 /// How far a tree of `texel` reaches from its base across the ground, in model units: to the
-/// farthest corner of the box the renderer draws it in (`Scene::new`: the grid of every level),
-/// whatever the file's recorded model box says.
+/// farthest corner of the box the renderer draws it in ([`Texel::grid_box`]).
 fn reach(texel: &Texel) -> f64 {
-    let o = texel.origin();
-    let hi = texel.levels.iter().fold(o, |hi, l| {
-        hi.max(o + DVec3::new(l.dims[0] as f64, l.dims[1] as f64, l.dims[2] as f64) * l.cell)
-    });
-    [o.x, hi.x]
+    let (lo, hi) = texel.grid_box();
+    [lo.x, hi.x]
         .into_iter()
-        .flat_map(|x| [o.z, hi.z].map(|z| x.hypot(z)))
+        .flat_map(|x| [lo.z, hi.z].map(|z| x.hypot(z)))
         .fold(0.0, f64::max)
 }
 

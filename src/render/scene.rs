@@ -224,15 +224,9 @@ impl Scene {
         let model_boxes: Vec<Aabb> = texels
             .iter()
             .map(|t| {
-                let o = t.origin();
-                let hi = t.levels.iter().fold(o, |hi, l| {
-                    hi.max(
-                        o + DVec3::new(l.dims[0] as f64, l.dims[1] as f64, l.dims[2] as f64)
-                            * l.cell,
-                    )
-                });
+                let (lo, hi) = t.grid_box();
                 Aabb {
-                    lo: o.as_vec3(),
+                    lo: lo.as_vec3(),
                     hi: hi.as_vec3(),
                 }
             })

@@ -233,8 +233,14 @@ fn opaque_slab(sun: Sun) -> Scene {
         200.0,
         SLAB_ALBEDO,
     );
+    lone_scene(texel, DVec3::new(0.0, 0.0, 10.0), sun)
+}
+
+/// One tree of `texel` at the origin, seen from `eye`, lit by `sun` with plain shading, no
+/// terrain and no sky.
+fn lone_scene(texel: Texel, eye: DVec3, sun: Sun) -> Scene {
     Scene::new(
-        DVec3::new(0.0, 0.0, 10.0),
+        eye,
         vec![texel],
         vec![look()],
         &[placed(DVec3::ZERO)],
@@ -1558,22 +1564,6 @@ fn solid_ball(radius: f64) -> Texel {
     t
 }
 
-/// [`solid_ball`] of `radius` at the origin, seen from `eye`, lit by `sun` with plain shading.
-fn ball_scene(radius: f32, eye: Vec3, sun: Sun) -> Scene {
-    Scene::new(
-        eye.as_dvec3(),
-        vec![solid_ball(f64::from(radius))],
-        vec![look()],
-        &[placed(DVec3::ZERO)],
-        None,
-        Lighting {
-            sun,
-            shading: PLAIN,
-            sky: None,
-        },
-    )
-}
-
 /// A texture's solid is an opaque surface where the box-filtered inside crosses a half: a
 /// ball seen head-on, lit from 0, 40 and 80 degrees off the line of sight, is where the
 /// sphere is (hit distance within a fifth of a cell), faces as it does (normals within 8
@@ -1590,7 +1580,7 @@ fn a_solid_ball_shades_as_the_sphere_it_holds() {
             direction: Vec3::new(a.sin(), 0.0, a.cos()),
             irradiance: std::f32::consts::PI,
         };
-        let scene = ball_scene(radius, eye, sun);
+        let scene = lone_scene(solid_ball(f64::from(radius)), eye.as_dvec3(), sun);
         for shadows in [ShadowRays::Exact, ShadowRays::Cached] {
             let march = March {
                 shadows,
@@ -1648,7 +1638,7 @@ fn a_solids_shadow_is_the_spheres_cached_or_exact() {
         direction: Vec3::new(0.3, 0.2, 1.0).normalize(),
         irradiance: std::f32::consts::PI,
     };
-    let scene = ball_scene(radius, eye, sun);
+    let scene = lone_scene(solid_ball(f64::from(radius)), eye.as_dvec3(), sun);
     let mut checked = 0;
     for (k, (i, j)) in (0..25)
         .flat_map(|i| (0..25).map(move |j| (i, j)))
