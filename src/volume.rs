@@ -77,6 +77,11 @@ pub struct Level {
     /// the foliage as a cloud of leaves (see `render::shading`); [`ISOTROPIC_LEAVES`] where no
     /// leaf was seen, and in files before texel 1.2.
     pub leaves: Vec<[f32; 6]>,
+    /// The wood's normal distribution per cell, as [`Level::leaves`] is the foliage's (a thin
+    /// branch's is its cylinder's normals, `(I - a a^T) / 2` for axis `a`), which shades the
+    /// wood where its density gradient says little (`render::integrate`); empty where the
+    /// level has none (files before texel 1.4), and the wood is then shaded on its gradient.
+    pub wood_normals: Vec<[f32; 6]>,
     /// Directional extinction `[S_xx, S_yy, S_zz, S_xy, S_xz, S_yz, c]`: along a unit
     /// direction `w` extinction is the stored one times `sqrt(q(w))`, `q(w) = w^T S w + c (w_x^4
     /// + w_y^4 + w_z^4)` (see `bake::calibrate`; [`ISOTROPIC`] in files before texel 1.2).
@@ -182,6 +187,7 @@ impl Level {
             gradient: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
             albedo: [vec![[0.0; 3]; n], vec![[0.0; 3]; n]],
             leaves: vec![ISOTROPIC_LEAVES; n],
+            wood_normals: Vec::new(),
             directional: ISOTROPIC,
             self_shadow: NO_SELF_SHADOW,
             wood_weight: 1.0,
@@ -438,18 +444,32 @@ impl Level {
     /// set of trilinear weights (the same sums as [`Level::fetch`]'s density).
     #[inline]
     pub fn foliage_leaves(&self, c: Vec3) -> Option<(f32, [f32; 6])> {
+        self.moment_at(1, &self.leaves, c)
+    }
+
+    /// The wood's density at `c` and, where it has some and the level has wood moments, its
+    /// normal moment.
+    #[inline]
+    pub fn wood_normals_at(&self, c: Vec3) -> Option<(f32, [f32; 6])> {
+        if self.wood_normals.is_empty() {
+            return None;
+        }
+        self.moment_at(0, &self.wood_normals, c)
+    }
+
+    fn moment_at(&self, part: usize, moments: &[[f32; 6]], c: Vec3) -> Option<(f32, [f32; 6])> {
         let (idx, w) = self.trilinear(c)?;
-        let d = self.weighted_density(1, &idx, &w);
+        let d = self.weighted_density(part, &idx, &w);
         if d <= 0.0 {
             return None;
         }
-        let mut leaves = [0.0f32; 6];
+        let mut sum = [0.0f32; 6];
         for k in 0..8 {
-            for (sum, m) in leaves.iter_mut().zip(&self.leaves[idx[k]]) {
+            for (sum, m) in sum.iter_mut().zip(&moments[idx[k]]) {
                 *sum += m * w[k];
             }
         }
-        Some((d, leaves))
+        Some((d, sum))
     }
 }
 

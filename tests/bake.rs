@@ -335,7 +335,7 @@ fn a_thick_closed_crown_is_baked_as_a_solid() {
     }
     let o = run(&["inspect", "x.texel"], dir.path());
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("texel 1.3") && out.contains("solids"), "{out}");
+    assert!(out.contains("texel 1.4") && out.contains("solids"), "{out}");
     // A fine grid too large for the solids' vote (2^25 fine cells) keeps them as density.
     let o = run(
         &[
@@ -353,9 +353,44 @@ fn a_thick_closed_crown_is_baked_as_a_solid() {
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&run(&["inspect", "y.texel"], dir.path()).stdout).to_string();
     assert!(
-        out.contains("texel 1.2") && !out.contains("solids"),
+        out.contains("texel 1.4") && !out.contains("solids"),
         "{out}"
     );
+}
+
+/// The wood's normal distribution (texel 1.4) is its surfaces': a bar along x, thinner than
+/// a cell, has its faces' normals along y and z, half each, and none along x but at its ends,
+/// at every level (where the wood is, by wood density).
+#[test]
+fn a_thin_bar_bakes_the_normal_distribution_of_its_faces() {
+    let tris = closed_box([-2.0, -0.05, -0.05], [2.0, 0.05, 0.05]);
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bar.gltf"), tiny_gltf(&tris, 4, |_| {})).unwrap();
+    let o = run(
+        &["bake", "bar.gltf", "-o", "bar.texel", "--resolution", "16"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(dir.path().join("bar.texel")).unwrap();
+    assert_eq!(&bytes[8..12], &[1, 0, 4, 0], "a texel 1.4 file");
+    let texel = texel_forest::formats::texel::decode(&bytes).unwrap();
+    for (n, level) in texel.levels.iter().enumerate() {
+        assert_eq!(level.wood_normals.len(), level.cell_count(), "level {n}");
+        let mut mean = [0.0f64; 6];
+        let mass: f64 = level.density[0].iter().map(|&d| f64::from(d)).sum();
+        for (m, &d) in level.wood_normals.iter().zip(&level.density[0]) {
+            for k in 0..6 {
+                mean[k] += f64::from(m[k]) * f64::from(d) / mass;
+            }
+        }
+        let want = [0.0, 0.5, 0.5, 0.0, 0.0, 0.0];
+        for k in 0..6 {
+            assert!(
+                (mean[k] - want[k]).abs() < 0.03,
+                "level {n}: the wood's moment {mean:?}, the bar's {want:?}"
+            );
+        }
+    }
 }
 
 #[test]
@@ -634,7 +669,7 @@ fn mask_marked_bark_stays_wood_and_flags_override_both_ways() {
     let o = run(&["inspect", "t.texel", "--json"], dir.path());
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["materials"][0]["reason"], "alpha_cuts");
-    assert_eq!(v["format"], "texel 1.2");
+    assert_eq!(v["format"], "texel 1.4");
     // Albedo statistics are over the cells with density of their part, and say so; the raw
     // size is the file's own R, not a figure recomputed from a channel list.
     let albedo = v["channels"]

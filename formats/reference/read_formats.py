@@ -11,7 +11,7 @@ class Bad(Exception):
     pass
 
 MAGIC = {b"\x89TEXEL\r\n": "texel", b"\x89TXINST\n": "instances"}
-MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 3, "instances": 1}
+MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 4, "instances": 1}
 CELL_LIMIT, TREE_LIMIT = 2**25, 2**24           # the reader's allocation limits (texel's defaults)
 
 def f32(x):  # round a Python float to binary32
@@ -182,7 +182,8 @@ def read_texel_header(c, minor, R):
     have = {k["name"]: (k["components"], k["encoding"]) for k in ch}
     for name, want in REQUIRED.items():
         if have.get(name) != want: raise Bad(f"11: channel {name} missing or not {want[0]} x {want[1]} (got {have.get(name)})")
-    if "leaves_foliage" in have and have["leaves_foliage"] != (6, F32): raise Bad(f"11: channel leaves_foliage is not 6 x F32 (got {have['leaves_foliage']})")
+    for name in ("leaves_foliage", "normals_wood"):
+        if name in have and have[name] != (6, F32): raise Bad(f"11: channel {name} is not 6 x F32 (got {have[name]})")
     solids = [n for n in ("solid_wood", "solid_foliage") if n in have]
     if len(solids) == 1: raise Bad(f"11: channel {solids[0]} without its pair")
     for n in solids:
@@ -205,11 +206,12 @@ def read_texel_payload(h, payload):
             if any(not math.isfinite(v) or v < 0 for v in chans[name]): raise Bad(f"12: level {n}: a negative or non-finite {name}")
         for name in ("gradient_wood", "gradient_foliage"):
             if not all(map(math.isfinite, chans[name])): raise Bad(f"12: level {n}: a non-finite {name}")
-        if "leaves_foliage" in chans:
-            lv = chans["leaves_foliage"]
+        for name in ("leaves_foliage", "normals_wood"):
+            if name not in chans: continue
+            lv = chans[name]
             for i in range(0, len(lv), 6):
                 if not (all(0 <= v <= 1 for v in lv[i:i + 3]) and all(-1 <= v <= 1 for v in lv[i + 3:i + 6])):
-                    raise Bad(f"12: level {n}: leaves_foliage {list(lv[i:i + 6])} is no moment of unit vectors")
+                    raise Bad(f"12: level {n}: {name} {list(lv[i:i + 6])} is no moment of unit vectors")
         h["data"].append(chans)
 
 def directional_factor(form, w):  # k_n(w) of formats/texel.md, for any non-zero w
@@ -325,8 +327,8 @@ def check_golden(h):
         if got != want: bad.append(f"{what}: decoded {got!r}, spec says {want!r}")
     name = os.path.basename(h["path"])
     if name == "conifer-8.texel":
-        eq("size", h["size"], 8838); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("c0be14b7", "2590186b"))
-        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 2), 990, 16660, 7812))
+        eq("size", h["size"], 10306); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("074823a0", "c884a06e"))
+        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 4), 1024, 22540, 9246))
         eq("generator", h["generator"], "texel-forest 0.1.0")
         eq("density_model, extinction_scale", (h["density_model"], h["extinction_scale"]), ("Transmittance", 1.0))
         eq("triangles, foliage_triangles", (h["triangles"], h["foliage_triangles"]), (9634, 4698))
@@ -343,6 +345,7 @@ def check_golden(h):
         eq("cell (2,4,2) gradient_foliage (binary32)", v["gradient_foliage"], [f32(0.015770117), f32(-0.096634224), f32(-0.0041346657)])
         eq("cell (2,4,2) albedo_foliage (n/65535 as binary32)", [f32(a) for a in v["albedo_foliage"]], [f32(0.018005647), f32(0.050003815), f32(0.02200351)])
         eq("cell (2,4,2) leaves_foliage (binary32)", v["leaves_foliage"], [f32(x) for x in (0.31541827, 0.4506226, 0.23395924, -0.016198598, -0.0015631133, 0.007044819)])
+        eq("cell (2,4,2) normals_wood (binary32)", v["normals_wood"], [f32(x) for x in (0.12878546, 0.63163596, 0.23957855, 0.04518614, 0.07614372, -0.08231792)])
         D = h["directional"]
         eq("directional, level 0 (binary32)", D[0], [f32(x) for x in (0.8765531, 0.639367, 0.7843354, 0.0061895773, -0.019525452, -0.007856724, -0.11321395)])
         eq("directional, level 3 (binary32)", D[3], [f32(x) for x in (0.9598583, 0.45084384, 0.90225893, -0.0048683556, -0.0043533826, -0.0023875819, -0.107591696)])

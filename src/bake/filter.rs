@@ -10,7 +10,7 @@ use crate::volume::Level;
 /// average would conserve optical mass but make distant trees too opaque: the mean of
 /// exp(-x) is more than exp of the mean. Albedo is the density-weighted average of each part
 /// (weighted by the part's solid instead where a child has solid: an opaque surface is what
-/// shows), the leaf-normal moment the foliage-density-weighted average, the solids' inside
+/// shows), each part's normal moment the average weighted by its density, the solids' inside
 /// fractions the plain mean of the eight (a box filter);
 /// gradients are recomputed on the coarser density.
 pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
@@ -63,7 +63,11 @@ pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
                         plain.map(|c| (c / n as f64) as f32)
                     };
                 }
-                out.leaves[o] = reduced_leaves(level, [x, y, z]);
+                out.leaves[o] = reduced_moment(level, &level.leaves, 1, [x, y, z]);
+                if !level.wood_normals.is_empty() {
+                    out.wood_normals
+                        .push(reduced_moment(level, &level.wood_normals, 0, [x, y, z]));
+                }
             }
         }
     }
@@ -73,9 +77,15 @@ pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
     out
 }
 
-/// The leaf-normal moment of the coarse cell `[x, y, z]`: its children's, weighted by their
-/// foliage density (the leaf area they stand for); the plain mean where none has foliage.
-fn reduced_leaves(level: &Level, [x, y, z]: [usize; 3]) -> [f32; 6] {
+/// A part's normal moment (`moments`, of `part`) in the coarse cell `[x, y, z]`: its
+/// children's, weighted by their density of the part (the area they stand for); the plain
+/// mean where none has any.
+fn reduced_moment(
+    level: &Level,
+    moments: &[[f32; 6]],
+    part: usize,
+    [x, y, z]: [usize; 3],
+) -> [f32; 6] {
     let (mut weighted, mut plain, mut mass, mut n) = ([0.0f64; 6], [0.0f64; 6], 0.0f64, 0);
     for c in 0..8 {
         let (cx, cy, cz) = (2 * x + (c & 1), 2 * y + ((c >> 1) & 1), 2 * z + (c >> 2));
@@ -83,8 +93,8 @@ fn reduced_leaves(level: &Level, [x, y, z]: [usize; 3]) -> [f32; 6] {
             continue;
         }
         let i = level.index(cx, cy, cz);
-        let d = f64::from(level.density[1][i]);
-        for (k, m) in level.leaves[i].iter().enumerate() {
+        let d = f64::from(level.density[part][i]);
+        for (k, m) in moments[i].iter().enumerate() {
             weighted[k] += d * f64::from(*m);
             plain[k] += f64::from(*m);
         }

@@ -219,7 +219,8 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     // those nothing can see.
     let mut level = Level::empty(grid.dims, grid.cell);
     level.albedo = albedo(&grid, &scans);
-    level.leaves = leaf_normals(&grid, &scans);
+    level.leaves = normal_moments(&grid, &scans, 1);
+    level.wood_normals = normal_moments(&grid, &scans, 0);
     let with_density = |mut level: Level, density: [Vec<f32>; 2]| {
         for part in 0..2 {
             level.gradient[part] = sobel::gradient(&density[part], grid.dims, grid.cell);
@@ -513,18 +514,19 @@ fn fit_gamma(grid: &Grid, density: &[Vec<f32>; 2], mesh_coverage: [f64; 3]) -> f
 }
 
 /// Mean colour of the surface crossings in each cell, per part, filled in where a part has none.
-/// Per cell, the foliage's leaf-normal moment `E[n n^T]` over the three axes' crossings, each
-/// weighted so the sum is by area (see `scan`); isotropic where no foliage was crossed.
-fn leaf_normals(grid: &Grid, scans: &[AxisScan]) -> Vec<[f32; 6]> {
+/// Per cell, the normal moment `E[n n^T]` of a part's surfaces (foliage 1, wood 0) over the
+/// three axes' crossings, each weighted so the sum is by area (see `scan`); isotropic where
+/// none of the part was crossed.
+fn normal_moments(grid: &Grid, scans: &[AxisScan], part: usize) -> Vec<[f32; 6]> {
     cells(grid)
         .map(|c| {
             let (mut sum, mut weight) = ([0.0f64; 6], 0.0f64);
             for (a, scan) in scans.iter().enumerate() {
                 let i = scan_index(grid, a, c);
-                for (s, m) in sum.iter_mut().zip(scan.leaf_sum[i]) {
+                for (s, m) in sum.iter_mut().zip(scan.normal_sum[part][i]) {
                     *s += f64::from(m);
                 }
-                weight += f64::from(scan.leaf_weight[i]);
+                weight += f64::from(scan.normal_weight[part][i]);
             }
             if weight > 0.0 {
                 unit_moment(sum.map(|s| (s / weight) as f32))

@@ -4,10 +4,11 @@
 //! * the transmittance of every texture cell the bundle crosses, in both directions,
 //! * the surface colour met inside each texture cell (for the albedo), of the surfaces that
 //!   can be seen: not those inside the union of the closed parts,
-//! * the second moment of the foliage's surface normals inside each cell, each crossing
+//! * the second moment of each part's surface normals inside each cell, each crossing
 //!   weighted by `1 / (|n_x| + |n_y| + |n_z|)`: a surface is crossed by the rays of axis `a` in
 //!   proportion to its area times `|n_a|`, so over the three axes the weights sum to the area,
-//!   whatever the orientation (the leaf-normal distribution the renderer shades foliage with),
+//!   whatever the orientation (the normal distributions the renderer shades foliage and wood
+//!   with),
 //! * optionally, the fine-scale solid occupancy along the ray (nonzero winding of closed parts)
 //!   and the fine cells a surface crosses.
 //!
@@ -94,10 +95,11 @@ pub struct AxisScan {
     /// every closed part), and their count: wood `[0]`, foliage `[1]`.
     pub color_sum: [Vec<[f32; 3]>; 2],
     pub crossings: [Vec<u32>; 2],
-    /// Area-weighted sums of `n n^T` (`[xx, yy, zz, xy, xz, yz]`) over the foliage crossings
-    /// inside the cell, and of their weights.
-    pub leaf_sum: Vec<[f32; 6]>,
-    pub leaf_weight: Vec<f32>,
+    /// Area-weighted sums of `n n^T` (`[xx, yy, zz, xy, xz, yz]`) over each part's crossings
+    /// inside the cell, and of their weights: wood `[0]` (only the surfaces that can be seen,
+    /// as for colour), foliage `[1]` (every leaf).
+    pub normal_sum: [Vec<[f32; 6]>; 2],
+    pub normal_weight: [Vec<f32>; 2],
     /// Per column, rays that cross no surface at all (`[0]`) and no wood (`[1]`).
     pub misses: [Vec<u32>; 2],
     /// Fine-cell bits (`INSIDE_*`, `SURFACE_*`), `[column][ray][fine cell along the axis]`, with
@@ -123,8 +125,8 @@ struct Column {
     sigma: [Vec<Option<f32>>; 2],
     color_sum: [Vec<[f32; 3]>; 2],
     crossings: [Vec<u32>; 2],
-    leaf_sum: Vec<[f32; 6]>,
-    leaf_weight: Vec<f32>,
+    normal_sum: [Vec<[f32; 6]>; 2],
+    normal_weight: [Vec<f32>; 2],
     misses: [u32; 2],
     fine: Vec<u8>,
 }
@@ -209,8 +211,8 @@ pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> Result<Axis
         sigma: [Vec::new(), Vec::new()],
         color_sum: [Vec::new(), Vec::new()],
         crossings: [Vec::new(), Vec::new()],
-        leaf_sum: Vec::new(),
-        leaf_weight: Vec::new(),
+        normal_sum: [Vec::new(), Vec::new()],
+        normal_weight: [Vec::new(), Vec::new()],
         misses: [Vec::new(), Vec::new()],
         fine: Vec::new(),
     };
@@ -221,8 +223,10 @@ pub fn scan_axis(model: &ScanModel, axis: usize, occupancy: bool) -> Result<Axis
             scan.crossings[s].extend_from_slice(&c.crossings[s]);
             scan.misses[s].push(c.misses[s]);
         }
-        scan.leaf_sum.extend_from_slice(&c.leaf_sum);
-        scan.leaf_weight.extend_from_slice(&c.leaf_weight);
+        for part in 0..2 {
+            scan.normal_sum[part].extend_from_slice(&c.normal_sum[part]);
+            scan.normal_weight[part].extend_from_slice(&c.normal_weight[part]);
+        }
         scan.fine.extend_from_slice(&c.fine);
     }
     Ok(scan)
@@ -309,8 +313,8 @@ fn scan_column(
     let mut misses = [0u32; 2];
     let mut color_sum = [vec![[0.0f32; 3]; cells], vec![[0.0f32; 3]; cells]];
     let mut crossings = [vec![0u32; cells], vec![0u32; cells]];
-    let mut leaf_sum = vec![[0.0f32; 6]; cells];
-    let mut leaf_weight = vec![0.0f32; cells];
+    let mut normal_sum = [vec![[0.0f32; 6]; cells], vec![[0.0f32; 6]; cells]];
+    let mut normal_weight = [vec![0.0f32; cells], vec![0.0f32; cells]];
     let mut fine = if occupancy {
         vec![0u8; k * k * fine_along]
     } else {
@@ -345,21 +349,22 @@ fn scan_column(
             let before = winding;
             winding += i32::from(h.winding);
             let (l, part) = (cell_of(h.t), h.is_foliage as usize);
-            if !(watertight && before != 0 && winding != 0) {
+            let seen = !(watertight && before != 0 && winding != 0);
+            if seen {
                 let sum = &mut color_sum[part][l];
                 for c in 0..3 {
                     sum[c] += h.rgb[c];
                 }
                 crossings[part][l] += 1;
             }
-            if h.is_foliage {
+            if h.is_foliage || seen {
                 let [x, y, z] = h.normal;
                 let w = 1.0 / (x.abs() + y.abs() + z.abs());
                 let m = [x * x, y * y, z * z, x * y, x * z, y * z];
-                for (sum, m) in leaf_sum[l].iter_mut().zip(m) {
+                for (sum, m) in normal_sum[part][l].iter_mut().zip(m) {
                     *sum += w * m;
                 }
-                leaf_weight[l] += w;
+                normal_weight[part][l] += w;
             }
         }
         if occupancy {
@@ -375,8 +380,8 @@ fn scan_column(
         sigma,
         color_sum,
         crossings,
-        leaf_sum,
-        leaf_weight,
+        normal_sum,
+        normal_weight,
         misses,
         fine,
     }

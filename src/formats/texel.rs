@@ -17,7 +17,7 @@ use crate::volume::{
 pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";
 pub const MAJOR: u16 = 1;
 /// Minor version 1 appends the wood pattern and the material table to the header.
-pub const MINOR: u16 = 3;
+pub const MINOR: u16 = 4;
 
 /// Limits a reader enforces before it allocates anything a header asks for.
 const MAX_LEVELS: usize = 16;
@@ -211,6 +211,22 @@ fn solid_channel(name: &str) -> ChannelHeader {
     }
 }
 
+/// The channel 1.4 appends: the wood's normal moment, laid out as `leaves_foliage`. Optional
+/// for readers (none: the wood is shaded on its density gradient).
+const WOOD_NORMALS: &str = "normals_wood";
+
+fn wood_normals_channel() -> ChannelHeader {
+    ChannelHeader {
+        name: WOOD_NORMALS.to_string(),
+        ..leaves_channel()
+    }
+}
+
+/// Whether a texture carries the wood's normal moments (every level or none).
+fn has_wood_normals(texel: &Texel) -> bool {
+    texel.levels.iter().any(|l| !l.wood_normals.is_empty())
+}
+
 /// Whether a texture draws solids: only then are the solid channels written, in a 1.3 file;
 /// a texture without is written as 1.2 wrote it, byte for byte.
 fn has_solids(texel: &Texel) -> bool {
@@ -223,6 +239,9 @@ fn channels(texel: &Texel) -> Vec<ChannelHeader> {
     channels.push(leaves_channel());
     if has_solids(texel) {
         channels.extend(SOLIDS.map(solid_channel));
+    }
+    if has_wood_normals(texel) {
+        channels.push(wood_normals_channel());
     }
     channels
 }
@@ -250,6 +269,19 @@ fn unorm16(v: f32) -> [u8; 2] {
 /// a reader would refuse: the header's rules and non-finite or negative values.
 pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
     let unwritable = |e: TexelError| TexelError::Unwritable(e.to_string());
+    // The wood's normals are a channel of every level or of none.
+    if has_wood_normals(texel)
+        && let Some(l) = texel
+            .levels
+            .iter()
+            .find(|l| l.wood_normals.len() != l.cell_count())
+    {
+        return Err(TexelError::Unwritable(format!(
+            "wood normals of {} cells in a level of {}",
+            l.wood_normals.len(),
+            l.cell_count()
+        )));
+    }
     let parts = parts(texel);
     validate(&parts.header, &parts.extension, Some(&parts.extension2)).map_err(unwritable)?;
     for level in &texel.levels {
@@ -264,7 +296,7 @@ pub(crate) struct Parts {
     pub(crate) extension: HeaderV1_1,
     pub(crate) extension2: HeaderV1_2,
     pub(crate) payload: Vec<u8>,
-    /// 3 where the payload holds solids, else 2.
+    /// 4 where the payload holds the wood's normals, else 3 where it holds solids, else 2.
     pub(crate) minor: u16,
 }
 
@@ -347,13 +379,28 @@ fn parts(texel: &Texel) -> Parts {
                 }
             }
         }
+        if has_wood_normals(texel) {
+            payload.extend(
+                level
+                    .wood_normals
+                    .iter()
+                    .flatten()
+                    .flat_map(|m| m.to_le_bytes()),
+            );
+        }
     }
     Parts {
         header,
         extension,
         extension2,
         payload,
-        minor: if has_solids(texel) { 3 } else { 2 },
+        minor: if has_wood_normals(texel) {
+            4
+        } else if has_solids(texel) {
+            3
+        } else {
+            2
+        },
     }
 }
 
@@ -375,22 +422,30 @@ pub(crate) fn forge(texel: &Texel, edit: impl FnOnce(&mut Parts)) -> Vec<u8> {
     assemble(&p).unwrap_or_default()
 }
 
-/// `texel` as a 1.1 writer wrote it: without the 1.2 header fields and the `leaves_foliage`
-/// channel. For tests of how older files are read and refused.
+/// `texel` as a 1.1 writer wrote it: without the 1.2 header fields and the channels after
+/// 1.0's. For tests of how older files are read and refused.
 #[cfg(feature = "dev-tools")]
 pub fn encode_v1_1(texel: &Texel) -> Vec<u8> {
     let mut p = parts(texel);
-    p.header.channels.retain(|c| c.name != LEAVES);
+    let per_cell = |channels: &[ChannelHeader]| {
+        channels
+            .iter()
+            .map(|c| c.components as usize * c.encoding.size())
+            .sum::<usize>()
+    };
+    // The v1 channels lead every level's payload; the later ones (leaves, solids, wood
+    // normals) follow them and are left out.
+    let all = per_cell(&p.header.channels);
+    let v1 = per_cell(&v1_channels(texel.info.density_model));
+    p.header
+        .channels
+        .truncate(v1_channels(texel.info.density_model).len());
     let mut payload = Vec::new();
     let mut at = 0;
     for level in &texel.levels {
         let n = level.cell_count();
-        let v1 = n * v1_channels(texel.info.density_model)
-            .iter()
-            .map(|c| c.components as usize * c.encoding.size())
-            .sum::<usize>();
-        payload.extend_from_slice(&p.payload[at..at + v1]);
-        at += v1 + n * 6 * 4;
+        payload.extend_from_slice(&p.payload[at..at + n * v1]);
+        at += n * all;
     }
     let mut header = bincode::encode_to_vec(&p.header, header_config()).unwrap_or_default();
     header.extend(bincode::encode_to_vec(&p.extension, header_config()).unwrap_or_default());
@@ -545,7 +600,12 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
             opened.raw_len()
         )));
     }
-    let (slots, leaves_slot, solid_slots) = channel_slots(&header)?;
+    let Slots {
+        slots,
+        leaves: leaves_slot,
+        solids: solid_slots,
+        wood_normals: wood_normals_slot,
+    } = channel_slots(&header)?;
     let payload = opened.payload()?;
 
     let mut levels = Vec::with_capacity(header.levels.len());
@@ -577,6 +637,13 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
                     .collect(),
                 None => vec![crate::volume::ISOTROPIC_LEAVES; n],
             },
+            wood_normals: match wood_normals_slot {
+                Some(slot) => f32s(bytes_of(slot))
+                    .chunks_exact(6)
+                    .map(|m| std::array::from_fn(|k| m[k]))
+                    .collect(),
+                None => Vec::new(),
+            },
             directional: fits.directional[index],
             self_shadow: fits.self_shadow[index],
             wood_weight: fits.wood_weight[index],
@@ -602,12 +669,18 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
     })
 }
 
-/// Where the reader finds its channels: the required ones, the leaf moments, the solids.
-type Slots = (Vec<usize>, Option<usize>, Option<[usize; 2]>);
+/// Where the reader finds its channels, as indices into `slots`, which indexes the header's
+/// table: the required ones first, then the optional ones found.
+struct Slots {
+    slots: Vec<usize>,
+    leaves: Option<usize>,
+    solids: Option<[usize; 2]>,
+    wood_normals: Option<usize>,
+}
 
 /// Where each channel the reader uses sits in the header's table: the six required ones (in
-/// [`v1_channels`] order), each checked for its layout, (1.2) the optional leaf moments and
-/// (1.3) the optional solids, both parts or neither.
+/// [`v1_channels`] order), each checked for its layout, (1.2) the optional leaf moments,
+/// (1.3) the optional solids, both parts or neither, and (1.4) the optional wood moments.
 fn channel_slots(header: &Header) -> Result<Slots, TexelError> {
     let find = |name: &str| header.channels.iter().position(|ch| ch.name == name);
     let layout = |i: usize, want: &ChannelHeader| {
@@ -651,7 +724,19 @@ fn channel_slots(header: &Header) -> Result<Slots, TexelError> {
             )));
         }
     };
-    Ok((slots, leaves, solids))
+    let wood_normals = match find(WOOD_NORMALS) {
+        Some(i) => {
+            slots.push(layout(i, &wood_normals_channel())?);
+            Some(slots.len() - 1)
+        }
+        None => None,
+    };
+    Ok(Slots {
+        slots,
+        leaves,
+        solids,
+        wood_normals,
+    })
 }
 
 fn f32s(b: &[u8]) -> Vec<f32> {
@@ -723,6 +808,11 @@ fn check_values(level: &Level) -> Result<(), TexelError> {
     if let Some(m) = level.leaves.iter().find(|m| !moment(m)) {
         return Err(TexelError::Payload(format!(
             "leaf-normal moment {m:?} in a level of {dims:?} cells is not one of unit normals"
+        )));
+    }
+    if let Some(m) = level.wood_normals.iter().find(|m| !moment(m)) {
+        return Err(TexelError::Payload(format!(
+            "wood-normal moment {m:?} in a level of {dims:?} cells is not one of unit normals"
         )));
     }
     Ok(())
@@ -1040,6 +1130,58 @@ pub(crate) mod tests {
         let mut bad = t.clone();
         bad.levels[0].solid[1].pop();
         assert!(encode(&bad).unwrap_err().to_string().contains("solids of"));
+    }
+
+    #[test]
+    fn wood_normals_are_written_as_1_4_and_read_back() {
+        let mut t = sample_texel(6);
+        let mut s = Stream::new(9, 0);
+        for l in &mut t.levels {
+            l.wood_normals = (0..l.cell_count())
+                .map(|_| {
+                    let mut c = || s.unit() as f32 - 0.5;
+                    let n = glam::Vec3::new(c(), c(), c()).normalize_or(glam::Vec3::Y);
+                    [
+                        n.x * n.x,
+                        n.y * n.y,
+                        n.z * n.z,
+                        n.x * n.y,
+                        n.x * n.z,
+                        n.y * n.z,
+                    ]
+                })
+                .collect();
+        }
+        let bytes = encode(&t).unwrap();
+        let opened = container::open(&bytes, MAGIC, "texel", MAJOR).unwrap();
+        assert_eq!(opened.minor, 4);
+        assert_eq!(decode(&bytes).unwrap(), t);
+        // The channel is the last, after the 1.2 channels (no solids here).
+        let parts = parts(&t);
+        let names: Vec<&str> = parts
+            .header
+            .channels
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect();
+        assert_eq!(names.last(), Some(&"normals_wood"));
+        assert_eq!(names.len(), 8);
+        // A level without them is refused by the writer, not written short.
+        let mut bad = t.clone();
+        bad.levels[1].wood_normals.clear();
+        let e = encode(&bad).unwrap_err().to_string();
+        assert!(e.contains("wood normals of 0 cells"), "{e}");
+        // A reader of 1.3 (one that skips the channel) draws the rest as before.
+        let skipped = forge(&t, |p| {
+            for c in &mut p.header.channels {
+                if c.name == "normals_wood" {
+                    c.name = "normals_other".into();
+                }
+            }
+        });
+        let read = decode(&skipped).unwrap();
+        assert!(read.levels.iter().all(|l| l.wood_normals.is_empty()));
+        assert_eq!(read.levels[0].density, t.levels[0].density);
     }
 
     #[test]

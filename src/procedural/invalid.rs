@@ -497,6 +497,32 @@ fn texel_level_value_files(base: &Texel, add: &mut Add) {
         }),
         "channel leaves_foliage has 12 x Unorm16",
     );
+    // (1.4) The wood's normal moments, checked as the leaves' are.
+    let with_wood = |edit: &dyn Fn(&mut Texel)| {
+        let mut t = base.clone();
+        for level in &mut t.levels {
+            level.wood_normals = vec![crate::volume::ISOTROPIC_LEAVES; level.cell_count()];
+        }
+        edit(&mut t);
+        t
+    };
+    add(
+        "wood-normals-out-of-range",
+        texel::forge(
+            &with_wood(&|t| t.levels[0].wood_normals[2][1] = -0.5),
+            |_| {},
+        ),
+        "wood-normal moment [0.33333334, -0.5,",
+    );
+    add(
+        "wood-normals-channel-layout",
+        texel::forge(&with_wood(&|_| {}), |p| {
+            let ch = &mut p.header.channels[7];
+            ch.components = 12;
+            ch.encoding = texel::Encoding::Unorm16;
+        }),
+        "channel normals_wood has 12 x Unorm16",
+    );
 }
 
 fn instances_files(valid: &[u8], files: &mut Vec<InvalidFile>) {

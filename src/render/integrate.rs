@@ -379,19 +379,29 @@ fn scatter(
     let foliage_scatters = m.foliage > 0.0 && part as f32 * shown >= m.wood_shown;
     // A leaf's shadow ray leaves the leaf itself, through its own tree as the level's
     // self-shadowing says (clumping, and the hot spot where the sun is behind the eye). Wood
-    // is a solid: its shadow ray leaves the surface layer the sample stands for, so that the
-    // layer does not shadow itself (an opaque volume would otherwise shade as
-    // Lommel-Seeliger's law, half as bright as a surface lit head-on). From a point up to one
-    // layer deep, a ray towards a sun at angle theta to the normal leaves after the layer over
-    // cos theta (capped at four layers, where grazing light is faint anyway).
-    // The wood's surface normal: where its shadow ray leaves, and how it is shaded.
-    let wood_normal = if foliage_scatters {
+    // is a solid: its shadow ray leaves the layer of surfaces the sample stands for, so that
+    // the layer does not shadow itself (an opaque volume would otherwise shade as
+    // Lommel-Seeliger's law, half as bright as a surface lit head-on). Where the textures hold
+    // the wood's normal distribution (texel 1.4), which way its surfaces face is in the
+    // shading, and the ray leaves one layer towards the sun. Without it, the wood is a surface
+    // on its density gradient, and from a point up to one layer deep a ray towards a sun at
+    // angle theta to that normal leaves after the layer over cos theta (capped at four
+    // layers, where grazing light is faint anyway).
+    let wood_by_normals = !foliage_scatters
+        && active.iter().any(|a| {
+            !scene.texel_of(a.instance).levels[a.level]
+                .wood_normals
+                .is_empty()
+        });
+    let wood_normal = if foliage_scatters || wood_by_normals {
         None
     } else {
         (-m.gradient_wood).try_normalize()
     };
     let p = if foliage_scatters {
         dir * s.ts
+    } else if wood_by_normals {
+        dir * s.ts + sun.direction * s.layer
     } else {
         let rise = wood_normal.map_or(1.0, |n| n.dot(sun.direction).max(0.25));
         dir * s.ts + sun.direction * (s.layer / rise)
@@ -449,10 +459,20 @@ fn scatter(
         let u = s.draws.leaf(segment);
         let leaves = leaf_moment(scene, active, s.ts);
         let normals = VisibleNormals::new(leaves.map(|v| v / m.foliage), -dir).lattice(u);
-        shade_leaves(scene, albedo, &normals, lit, -dir)
-    } else {
-        shade(scene, albedo, wood_normal, lit, -dir)
+        return shade_leaves(scene, albedo, &normals, lit, -dir);
     }
+    // Wood thinner than a cell has no surface its gradient can say: it is shaded as the
+    // surfaces its cell holds, from their normals' distribution, as leaves are (a branch's
+    // visible half, lit where it faces the sun).
+    if wood_by_normals {
+        let (moment, covered) = wood_moment(scene, active, s.ts);
+        if covered > 0.0 {
+            let u = s.draws.leaf(segment);
+            let normals = VisibleNormals::new(moment.map(|v| v / covered), -dir).lattice(u);
+            return shade_leaves(scene, albedo, &normals, lit, -dir);
+        }
+    }
+    shade(scene, albedo, wood_normal, lit, -dir)
 }
 
 /// What the instances containing a sample say: their extinction by part, each part's albedo
@@ -552,18 +572,52 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
 /// over the instances there, each weighted by its foliage extinction (divide by the total for
 /// the mixture's moment). Read only for a leaf that is lit: most samples are not.
 fn leaf_moment(scene: &Scene, active: &[Active], ts: f32) -> [f32; 6] {
+    part_moment(scene, active, ts, 1)
+}
+
+/// The wood's normal moment at `ts`, as [`leaf_moment`] the foliage's, and the wood
+/// extinction it covers: instances whose textures have no wood moments (before texel 1.4)
+/// add none.
+fn wood_moment(scene: &Scene, active: &[Active], ts: f32) -> ([f32; 6], f32) {
+    let mut covered = 0.0;
+    let sum = moment_sum(scene, active, ts, 0, &mut covered);
+    (sum, covered)
+}
+
+fn part_moment(scene: &Scene, active: &[Active], ts: f32, part: usize) -> [f32; 6] {
+    moment_sum(scene, active, ts, part, &mut 0.0)
+}
+
+fn moment_sum(
+    scene: &Scene,
+    active: &[Active],
+    ts: f32,
+    part: usize,
+    covered: &mut f32,
+) -> [f32; 6] {
     let mut sum = [0.0f32; 6];
     for a in active {
         let inst = scene.instances.get(a.instance);
         let look = &scene.looks[inst.look as usize];
         let level = &scene.texels[look.texel].levels[a.level];
-        let Some((density, leaves)) = level.foliage_leaves(a.c0 + a.dc * ts) else {
+        let c = a.c0 + a.dc * ts;
+        let found = if part == 1 {
+            level.foliage_leaves(c)
+        } else {
+            level.wood_normals_at(c)
+        };
+        let Some((density, moment)) = found else {
             continue;
         };
-        let foliage = a.extinction(look.foliage * density);
+        let sigma = a.extinction(if part == 1 {
+            look.foliage * density
+        } else {
+            density
+        });
+        *covered += sigma;
         // The moment turns with the instance: M' = R M R^T, R a turn about +Y.
-        for (s, v) in sum.iter_mut().zip(turn_moment(leaves, inst.cos, inst.sin)) {
-            *s += v * foliage;
+        for (s, v) in sum.iter_mut().zip(turn_moment(moment, inst.cos, inst.sin)) {
+            *s += v * sigma;
         }
     }
     sum

@@ -225,4 +225,37 @@ mod tests {
         // Normals uniform in azimuth, visible ones weighted by |cos|: E[cos^2] / E[|cos|] = pi/4.
         assert!((lit - std::f64::consts::FRAC_PI_4).abs() < 0.02, "{lit}");
     }
+
+    /// A branch (wood, texel 1.4) is a cylinder: its normals are uniform around its axis `a`,
+    /// the moment `(I - a a^T) / 2`. Seen from `v` and lit from `l`, its visible half sends
+    /// `|l_p| (sin g + (pi - g) cos g) / 4`, `l_p` the part of `l` across the axis and `g` the
+    /// angle between `l_p` and `v_p` (Lambert's law over the half circle the eye sees, dark
+    /// past the terminator): pi / 4 lit from the eye, 1 / 4 from the side, 0 from behind.
+    #[test]
+    fn a_branch_shades_as_the_cylinder_it_is() {
+        let a = Vec3::new(0.3, 0.9, -0.2).normalize();
+        let branch = [
+            (1.0 - a.x * a.x) / 2.0,
+            (1.0 - a.y * a.y) / 2.0,
+            (1.0 - a.z * a.z) / 2.0,
+            -a.x * a.y / 2.0,
+            -a.x * a.z / 2.0,
+            -a.y * a.z / 2.0,
+        ];
+        let across = |w: Vec3| w - a * w.dot(a);
+        for (v, l) in [
+            (Vec3::new(0.8, -0.1, 0.6), Vec3::new(0.8, -0.1, 0.6)),
+            (Vec3::new(0.8, -0.1, 0.6), Vec3::new(-0.3, 0.5, 0.8)),
+            (Vec3::new(-0.1, 0.4, 0.9), Vec3::new(0.9, 0.1, -0.3)),
+            (Vec3::new(-0.1, 0.4, 0.9), Vec3::new(0.2, -0.3, -0.9)),
+        ] {
+            let (v, l) = (v.normalize(), l.normalize());
+            let (vp, lp) = (across(v), across(l));
+            let g = f64::from(vp.angle_between(lp));
+            let want =
+                f64::from(lp.length()) * (g.sin() + (std::f64::consts::PI - g) * g.cos()) / 4.0;
+            let got = response(branch, v, l, 250_000);
+            assert!((got - want).abs() < 0.01, "v {v} l {l}: {got} vs {want}");
+        }
+    }
 }
