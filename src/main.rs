@@ -21,7 +21,10 @@ fn main() -> std::process::ExitCode {
             // Build logs and scripts expect one line per error; names from files must not
             // reach the terminal as control sequences.
             let line = message.join(": ").replace('\n', " ");
-            eprintln!("texel: error: {}", texel_forest::inspect::printable(&line));
+            commands::to_stderr(&format!(
+                "texel: error: {}",
+                texel_forest::inspect::printable(&line)
+            ));
             if e.is::<commands::TooDifferent>() {
                 std::process::ExitCode::from(commands::TOO_DIFFERENT)
             } else {

@@ -27,7 +27,12 @@ pub fn remove_temporaries_on_interrupt() {
                 let _ = std::fs::remove_file(path);
             }
         }
-        eprintln!("texel: interrupted; no output was written");
+        // A terminal gone with the SIGHUP cannot take the line; the exit status says it.
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "texel: interrupted; no output was written"
+        );
         std::process::exit(130);
     });
 }
@@ -52,6 +57,11 @@ pub enum OutputError {
         path: PathBuf,
         why: String,
     },
+    #[error(
+        "{}: a depfile cannot name this file: its name holds a line break, which no Make rule can hold",
+        path.display()
+    )]
+    Unnamable { path: PathBuf },
     #[error("cannot write {path}: {source}")]
     Io {
         path: PathBuf,
@@ -336,17 +346,23 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     outputs.commit()
 }
 
-/// Escapes a path for a Make rule (GNU make, as gcc writes them): spaces, `#` and `:` are
+/// Escapes a path for a Make rule (GNU make, as gcc writes them): spaces, tabs, `#` and `:` are
 /// backslash-escaped, a backslash before one of them doubled, `$` doubled; in a target, `%`
 /// too. An unescaped `:` among the prerequisites reads as a static pattern rule ("target
 /// pattern contains no '%'") and a `%` in a target as a pattern rule; an escaped `%` among
 /// the prerequisites keeps its backslash.
-fn make_escape(path: &Path, target: bool) -> String {
+/// A line break cannot be escaped: such a path is refused.
+fn make_escape(path: &Path, target: bool) -> Result<String, OutputError> {
     let text = path.to_string_lossy();
+    if text.contains(['\n', '\r']) {
+        return Err(OutputError::Unnamable {
+            path: path.to_path_buf(),
+        });
+    }
     let mut out = String::new();
     let mut backslashes = 0;
     for ch in text.chars() {
-        let special = matches!(ch, ' ' | '#' | ':') || (target && ch == '%');
+        let special = matches!(ch, ' ' | '\t' | '#' | ':') || (target && ch == '%');
         if special {
             // The backslashes before it stand for themselves: doubled, then the escape.
             out.extend(std::iter::repeat_n('\\', backslashes));
@@ -358,24 +374,27 @@ fn make_escape(path: &Path, target: bool) -> String {
         }
         backslashes = if ch == '\\' { backslashes + 1 } else { 0 };
     }
-    out
+    Ok(out)
 }
 
 /// A Make dependency rule: `target: dep dep ...`, one line, newline-terminated.
-pub fn depfile(target: &Path, dependencies: &[PathBuf]) -> String {
+pub fn depfile(target: &Path, dependencies: &[PathBuf]) -> Result<String, OutputError> {
     depfile_for(&[target], dependencies)
 }
 
 /// [`depfile`] of several targets made by one run (a frame sequence): `a b c: dep dep ...`.
-pub fn depfile_for(targets: &[&Path], dependencies: &[PathBuf]) -> String {
-    let names: Vec<String> = targets.iter().map(|t| make_escape(t, true)).collect();
+pub fn depfile_for(targets: &[&Path], dependencies: &[PathBuf]) -> Result<String, OutputError> {
+    let names = targets
+        .iter()
+        .map(|t| make_escape(t, true))
+        .collect::<Result<Vec<String>, _>>()?;
     let mut line = format!("{}:", names.join(" "));
     for d in dependencies {
         line.push(' ');
-        line.push_str(&make_escape(d, false));
+        line.push_str(&make_escape(d, false)?);
     }
     line.push('\n');
-    line
+    Ok(line)
 }
 
 /// `path` relative to directory `base`, with `/` separators; both are made absolute first.
@@ -418,12 +437,17 @@ mod tests {
                 PathBuf::from("x$#.bin"),
                 PathBuf::from("c:d%e.png"),
                 PathBuf::from("r\\ s.png"),
+                PathBuf::from("t\tu.png"),
             ],
-        );
+        )
+        .unwrap();
         assert_eq!(
             line,
-            "out/a\\%b.texel: my\\ tree.gltf x$$\\#.bin c\\:d%e.png r\\\\\\ s.png\n"
+            "out/a\\%b.texel: my\\ tree.gltf x$$\\#.bin c\\:d%e.png r\\\\\\ s.png t\\\tu.png\n"
         );
+        // A line break cannot be escaped (GNU make reads it as the rule's end).
+        let e = depfile(Path::new("a.texel"), &[PathBuf::from("a\nb.bin")]).unwrap_err();
+        assert!(e.to_string().contains("line break"), "{e}");
     }
 
     #[test]

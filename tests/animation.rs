@@ -222,6 +222,12 @@ fn sequences_that_cannot_be_written_or_read_are_refused_before_rendering() {
     let o = render(d, &["--frames", "0..2", "-o", "one.exr"]);
     assert_error(&o, &["-o", "one.exr", "#"]);
     assert!(!d.join("one.exr").exists());
+    // A character of more than one byte before the #s (the numbering cut it in two).
+    let o = render(d, &["--frames", "0..2", "-o", "tr\u{e8}s##.exr"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["tr\u{e8}s00.exr", "tr\u{e8}s01.exr"] {
+        assert!(d.join(f).exists(), "{f}");
+    }
     let o = render(
         d,
         &[

@@ -907,3 +907,22 @@ fn strip_drawn_by_nodes(dir: &Path, name: &str, nodes: usize) {
     std::fs::write(dir.join(format!("{name}.bin")), &bin).unwrap();
     std::fs::write(dir.join(format!("{name}.gltf")), doc.to_string()).unwrap();
 }
+
+/// A standard error nobody reads any more (`2>&1 | head -1` after its first line, a closed
+/// pipe) loses the message, not the exit status: 1 for an error, where `eprintln!` panicked
+/// with 101.
+#[test]
+fn a_closed_standard_error_keeps_the_exit_status() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = common::texel()
+        .args(["bake", "missing.glb", "-o", "x.texel"])
+        .current_dir(dir.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The reader goes before texel writes its error.
+    drop(child.stderr.take());
+    assert_eq!(child.wait().unwrap().code(), Some(1));
+    assert!(!dir.path().join("x.texel").exists());
+}

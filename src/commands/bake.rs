@@ -68,7 +68,7 @@ pub fn run(args: &BakeArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()> 
     let size = bytes.len();
     outputs.set(texel_out, bytes);
     if let Some(dep) = dep_out {
-        outputs.set(dep, depfile(&args.output, &read).into_bytes());
+        outputs.set(dep, depfile(&args.output, &read)?.into_bytes());
     }
     outputs.commit()?;
     if !quiet {

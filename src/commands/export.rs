@@ -64,7 +64,7 @@ pub fn run(args: &ExportArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
             .flatten()
             .map(|p| p.as_path())
             .collect();
-        outputs.set(id, depfile_for(&targets, &files).into_bytes());
+        outputs.set(id, depfile_for(&targets, &files)?.into_bytes());
     }
     outputs.commit()?;
     if !quiet {

@@ -39,12 +39,23 @@ pub fn warn(message: &str) {
         .lines()
         .map(texel_forest::inspect::printable)
         .collect();
-    eprintln!("texel: warning: {}", lines.join("\n    "));
+    to_stderr(&format!("texel: warning: {}", lines.join("\n    ")));
 }
 
 /// Prints a run's summary line (control characters from files escaped, as in warnings).
 pub fn summary(message: &str) {
-    eprintln!("texel: {}", texel_forest::inspect::printable(message));
+    to_stderr(&format!(
+        "texel: {}",
+        texel_forest::inspect::printable(message)
+    ));
+}
+
+/// Writes one line to standard error. A standard error that cannot be written (a closed pipe,
+/// `2>&1 | head -1`, a full disk) loses the line but not the run's exit status, where
+/// `eprintln!` would panic (exit 101).
+pub fn to_stderr(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
 }
 
 /// Writes to standard output; a reader that stops early (`| head`) is not an error.

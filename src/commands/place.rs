@@ -76,7 +76,7 @@ pub fn run(args: &PlaceArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()>
     if let Some(dep) = dep_out {
         outputs.set(
             dep,
-            depfile(&args.output, &inputs.dependencies).into_bytes(),
+            depfile(&args.output, &inputs.dependencies)?.into_bytes(),
         );
     }
     outputs.commit()?;

@@ -113,6 +113,15 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
     if let Some((_, files, _)) = &path {
         dependencies.extend(files.iter().cloned());
     }
+    // The depfile is written with the last frame; a name it cannot hold is refused before
+    // the first is rendered.
+    let depfile_rule = match &args.depfile {
+        Some(_) => {
+            let targets: Vec<&Path> = shots.iter().map(|s| s.exr.as_path()).collect();
+            Some(depfile_for(&targets, &dependencies)?)
+        }
+        None => None,
+    };
     // Where the camera comes from: the path, frame by frame, or the flags, once.
     let aim = match &path {
         Some((p, _, file)) => Aim::Path(p, file),
@@ -221,12 +230,9 @@ pub fn run(args: &RenderArgs, limits: &Limits, quiet: bool) -> anyhow::Result<()
         let seconds = render_start.elapsed().as_secs_f64();
 
         let depfile = (n + 1 == shots.len())
-            .then_some(args.depfile.as_ref())
+            .then_some(args.depfile.as_ref().zip(depfile_rule.as_ref()))
             .flatten()
-            .map(|d| {
-                let targets: Vec<&Path> = shots.iter().map(|s| s.exr.as_path()).collect();
-                (d.as_path(), depfile_for(&targets, &dependencies))
-            });
+            .map(|(d, rule)| (d.as_path(), rule.clone()));
         // Only Cryptomatte names objects: a name per tree is work a plain frame does not need.
         let names = settings
             .mattes
@@ -329,10 +335,15 @@ fn shots(args: &RenderArgs, path: Option<&CameraPath>) -> anyhow::Result<Vec<Sho
 /// `path` with the last run of `#`s in its file name replaced by `frame`, zero-padded to
 /// their count; a name without `#`s is kept for a sequence of one frame and refused for more.
 fn numbered(flag: &str, path: &Path, frame: u32, count: usize) -> anyhow::Result<PathBuf> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let name = match path.file_name().map(|n| n.to_str()) {
+        None => "",
+        Some(Some(name)) => name,
+        Some(None) if count == 1 => return Ok(path.to_path_buf()),
+        Some(None) => bail!(
+            "{flag} {}: the file name is not UTF-8, so no frame number can be put in it",
+            path.display()
+        ),
+    };
     let Some(end) = name.rfind('#') else {
         if count == 1 {
             return Ok(path.to_path_buf());
@@ -342,7 +353,11 @@ fn numbered(flag: &str, path: &Path, frame: u32, count: usize) -> anyhow::Result
             path.display()
         );
     };
-    let begin = name[..end].rfind(|c| c != '#').map_or(0, |i| i + 1);
+    let begin = name[..end]
+        .char_indices()
+        .rev()
+        .find(|&(_, c)| c != '#')
+        .map_or(0, |(i, c)| i + c.len_utf8());
     let digits = end + 1 - begin;
     let file = format!("{}{frame:0digits$}{}", &name[..begin], &name[end + 1..]);
     Ok(path.with_file_name(file))

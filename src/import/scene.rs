@@ -357,13 +357,23 @@ fn collect_views(
         ));
     };
     if l.type_ == Checked::Valid(json::extensions::scene::khr_lights_punctual::Type::Directional) {
+        // A light's direction is its node's -Z; a transform that scales it to nothing (a zero
+        // scale, or one f32 rounds to zero) leaves the sun no direction to come from.
+        let towards = axis(DVec3::Z);
+        if !(towards.is_finite() && towards.length_squared() > 0.5) {
+            return Err(ImportError::invalid(
+                &doc.path,
+                format!("nodes[{index}]"),
+                "the directional light has no direction: its node's transform scales it to nothing (or beyond f64)",
+            ));
+        }
         b.suns.push(SceneSun {
             name: l
                 .name
                 .clone()
                 .or_else(|| node.name.clone())
                 .unwrap_or_else(|| format!("light {}", b.suns.len())),
-            towards: axis(DVec3::Z),
+            towards,
             intensity: l.intensity as f64,
             color: l.color,
         });
@@ -532,13 +542,22 @@ fn vertex_colors(
                     format!("must be {n} VEC3 or VEC4 elements"),
                 ));
             }
-            (0..n)
+            let colors: Vec<Vec4> = (0..n)
                 .map(|i| {
                     let e = v.element(i);
                     let alpha = if v.components == 4 { e[3] } else { 1.0 };
                     Vec4::new(e[0] as f32, e[1] as f32, e[2] as f32, alpha as f32)
                 })
-                .collect()
+                .collect();
+            // A NaN colour would bake to a NaN albedo, and a NaN alpha would cut every leaf.
+            if let Some(i) = colors.iter().position(|c| !c.is_finite()) {
+                return Err(ImportError::invalid(
+                    &path,
+                    &f,
+                    format!("accessor {a} element {i} is not finite ({})", colors[i]),
+                ));
+            }
+            colors
         }
         None => vec![Vec4::ONE; n],
     })

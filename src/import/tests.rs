@@ -164,6 +164,41 @@ fn normalized_sparse_accessors_and_vertex_colors_decode() {
     );
 }
 
+/// A vertex colour that is no number would bake to a NaN albedo (or, as alpha, cut every
+/// leaf of a masked material): refused by field, element and value.
+#[test]
+fn vertex_colors_that_are_not_finite_are_refused() {
+    for (bad, shown) in [(f32::NAN, "NaN"), (f32::INFINITY, "inf")] {
+        let (mut bin, mut views) = (vec![], vec![]);
+        let p = view(&mut bin, &mut views, &f32s(&SQUARE[..9]));
+        let c = view(
+            &mut bin,
+            &mut views,
+            &f32s(&[1.0, 0.5, 0.2, 1.0, 0.3, 0.4, 0.5, 1.0, 0.1, 0.2, 0.3, bad]),
+        );
+        let doc = json!({
+            "scenes": [{ "nodes": [0] }],
+            "nodes": [{ "mesh": 0 }],
+            "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0, "COLOR_0": 1 } }] }],
+            "accessors": [
+                { "bufferView": p, "componentType": 5126, "count": 3, "type": "VEC3" },
+                { "bufferView": c, "componentType": 5126, "count": 3, "type": "VEC4" },
+            ],
+            "bufferViews": views,
+        });
+        let dir = tempfile::tempdir().unwrap();
+        let e = load(&write_gltf(doc, &bin, dir.path()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("meshes[0].primitives[0].attributes.COLOR_0")
+                && e.contains("element 2 is not finite")
+                && e.contains(shown),
+            "{e}"
+        );
+    }
+}
+
 #[test]
 fn base_color_textures_are_decoded_from_srgb_and_transformed() {
     // A 2 x 1 texture: left texel sRGB 188 (linear ~0.5), right texel black with alpha 0.
@@ -289,6 +324,11 @@ fn impossible_nodes_are_refused_and_orthographic_cameras_named() {
             "nodes[3].extensions.KHR_lights_punctual.light",
         ),
         (|d| d["nodes"][2]["camera"] = json!(4), "nodes[2].camera"),
+        (
+            // A sun scaled to nothing has no direction to shine from.
+            |d| d["nodes"][3]["scale"] = json!([0.0, 0.0, 0.0]),
+            "nodes[3]: the directional light has no direction",
+        ),
         (
             // Shared children make a walk's paths exponential in depth: refused at once.
             |d| d["nodes"][1]["children"] = json!([2]),
