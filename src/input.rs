@@ -28,6 +28,14 @@ pub enum InputError {
     },
 }
 
+/// What tells one input file from another however its path is spelt (`a/../b.texel` is
+/// `b.texel`, and so is a link to it): the canonical path where the file exists, else the path
+/// as given (whose read then fails with its own error). Caches of decoded inputs are keyed by
+/// it, so that a file named many ways is decoded once.
+pub fn file_key(path: &Path) -> std::path::PathBuf {
+    std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
+}
+
 /// The whole of `path`, refused if it holds more than `limit` bytes (`what` names the kind of
 /// file in the message). Never reads more than `limit + 1` bytes.
 pub fn read_bounded(path: &Path, limit: u64, what: &'static str) -> Result<Vec<u8>, InputError> {

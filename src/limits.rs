@@ -12,7 +12,8 @@ pub struct Limits {
     pub triangles: u64,
     /// Trees of one forest (`--max-trees`).
     pub trees: u64,
-    /// Pixels of one image, read or written (`--max-pixels`).
+    /// Pixels of one image, read or written, and of a glTF's images together
+    /// (`--max-pixels`).
     pub pixels: u64,
     /// Trees standing over one tree's base, itself included, in a forest to render
     /// (`--max-overlap`; `render::crowding`).

@@ -356,6 +356,41 @@ fn a_model_changed_since_the_bake_is_refused_and_nothing_is_written() {
     assert!(!d.join("forest.glb").exists() && !d.join("trees.csv").exists());
 }
 
+/// Species that share a texture share its model's one copy, however their records spell the
+/// texture's path (a file named many ways was copied, and decoded, once per spelling).
+#[test]
+fn species_naming_one_texture_two_ways_share_one_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    species_with_texels(d);
+    let meshes = |d: &Path| {
+        let o = place_on_mountain(d, &["--region=-120,-120,120,120"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let o = run(&["export", "forest.instances", "-o", "forest.glb"], d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (json, _) = read_glb(&d.join("forest.glb"));
+        json["meshes"].as_array().unwrap().len()
+    };
+    let plain = meshes(d);
+    // The fixture's species name each texture twice: the second time spelt another way.
+    let text = std::fs::read_to_string(d.join("species.json")).unwrap();
+    let mut seen = std::collections::HashSet::new();
+    let respelt: Vec<String> = text
+        .lines()
+        .map(
+            |line| match line.trim().strip_prefix("\"texel\": \"trees/") {
+                Some(rest) if !seen.insert(rest.to_string()) => {
+                    line.replace("\"trees/", "\"./trees/../trees/")
+                }
+                _ => line.to_string(),
+            },
+        )
+        .collect();
+    assert!(respelt.iter().any(|l| l.contains("./trees/../trees/")));
+    std::fs::write(d.join("species.json"), respelt.join("\n")).unwrap();
+    assert_eq!(meshes(d), plain);
+}
+
 #[test]
 fn usage_errors_name_the_flags() {
     let dir = tempfile::tempdir().unwrap();

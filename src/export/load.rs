@@ -112,14 +112,19 @@ pub fn load(
         for t in &inputs.forest.instances {
             has_trees[t.species as usize] = true;
         }
-        // Texel paths already read, with their model's index.
-        let mut read: Vec<(PathBuf, usize)> = Vec::new();
+        // Texel files already read (however their paths are spelt: `input::file_key`), with
+        // the SHA-256 they were checked against and their model's index.
+        let mut read: Vec<(PathBuf, [u8; 32], usize)> = Vec::new();
         for (s, record) in inputs.forest.info.species.iter().enumerate() {
             if !has_trees[s] {
                 continue;
             }
             let file = dir.join(&record.texel);
-            if let Some((_, m)) = read.iter().find(|(p, _)| *p == file) {
+            let key = crate::input::file_key(&file);
+            if let Some((.., m)) = read
+                .iter()
+                .find(|(k, sha, _)| *k == key && *sha == record.texel_sha256)
+            {
                 inputs.species_model[s] = Some(*m);
                 continue;
             }
@@ -127,7 +132,7 @@ pub fn load(
             inputs.dependencies.push(file.clone());
             inputs.dependencies.extend(files);
             inputs.models.push(model);
-            read.push((file, inputs.models.len() - 1));
+            read.push((key, record.texel_sha256, inputs.models.len() - 1));
             inputs.species_model[s] = Some(inputs.models.len() - 1);
         }
     }

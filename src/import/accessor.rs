@@ -221,7 +221,19 @@ pub(super) fn read(doc: &mut Document, index: usize, field: &str) -> Result<Valu
             }
         }
     } else {
-        data = vec![0.0; count as usize * components];
+        let values = count * components as u64;
+        doc.unbacked_values += values;
+        if doc.unbacked_values > super::document::MAX_UNBACKED_VALUES {
+            return Err(ImportError::unsupported(
+                &path,
+                format!("{field} ({here})"),
+                format!(
+                    "has no bufferView, so its {count} elements are zeros: with the file's other such accessors, more than the {} values we decode without bytes to stand for them",
+                    super::document::MAX_UNBACKED_VALUES
+                ),
+            ));
+        }
+        data = vec![0.0; values as usize];
     }
 
     if let Some(sparse) = sparse {

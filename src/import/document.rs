@@ -53,7 +53,17 @@ pub(super) struct Document {
     pub sources: Vec<Source<PathBuf>>,
     pub warnings: Vec<String>,
     pub limits: Limits,
+    /// Values of accessors without a bufferView (zeros, with sparse substitutions) decoded so
+    /// far: memory no byte of the input stands for, bounded by [`MAX_UNBACKED_VALUES`].
+    pub unbacked_values: u64,
+    /// Pixels of images decoded so far, bounded in all by `--max-pixels`.
+    pub pixels_decoded: u64,
 }
+
+/// Accessor values a file may ask for without the bytes to hold them (accessors without a
+/// bufferView read as zeros): 16.8 million, 128 MiB decoded. Tree models use none, or a few
+/// for sparse edits; a 1.3 KB file of such accessors shared by several primitives took 5.7 GB.
+pub const MAX_UNBACKED_VALUES: u64 = 1 << 24;
 
 fn from_input(e: InputError) -> ImportError {
     match e {
@@ -156,6 +166,8 @@ impl Document {
             sources: vec![source],
             warnings,
             limits: Limits::default(),
+            unbacked_values: 0,
+            pixels_decoded: 0,
         })
     }
 

@@ -185,6 +185,21 @@ pub(super) fn load_texture(
             ));
         }
     };
+    // Each image is bounded on its own by its sides; all of a file's together by
+    // `--max-pixels`, counted before decoding (images shared by name are decoded per texture).
+    // (An image whose header cannot be read is refused by the decoder, which says why.)
+    let (w, h) = dimensions(&bytes).unwrap_or((0, 0));
+    doc.pixels_decoded += u64::from(w) * u64::from(h);
+    if doc.pixels_decoded > doc.limits.pixels {
+        return Err(ImportError::unsupported(
+            &path,
+            &here,
+            format!(
+                "its {w} x {h} pixels take the file's images past {} pixels in all (--max-pixels)",
+                doc.limits.pixels
+            ),
+        ));
+    }
     let (decoded, has_alpha) =
         decode(&bytes).map_err(|e| ImportError::unsupported(&path, &here, e))?;
     let (width, height) = decoded.dimensions();
@@ -197,6 +212,15 @@ pub(super) fn load_texture(
         nearest,
         has_alpha,
     })
+}
+
+/// The image's width and height, from its header.
+fn dimensions(bytes: &[u8]) -> Option<(u32, u32)> {
+    ::image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .ok()?
+        .into_dimensions()
+        .ok()
 }
 
 /// The image as RGBA, and whether it had an alpha channel of its own.

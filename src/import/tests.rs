@@ -199,6 +199,76 @@ fn vertex_colors_that_are_not_finite_are_refused() {
     }
 }
 
+/// Accessors without a bufferView are zeros that no byte of the file pays for: a few
+/// hundred bytes could ask for gigabytes of them, shared by many primitives. Past 2^24 values
+/// in a file they are refused, before any is allocated.
+#[test]
+fn accessors_of_zeros_are_bounded() {
+    let doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [
+            { "attributes": { "POSITION": 0 } },
+            { "attributes": { "POSITION": 0 } },
+        ] }],
+        "accessors": [{ "componentType": 5126, "count": 4_000_000, "type": "VEC3" }],
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let e = load(&write_gltf(doc, &[0; 4], dir.path()))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("meshes[0].primitives[1].attributes.POSITION (accessors[0])")
+            && e.contains("has no bufferView"),
+        "{e}"
+    );
+}
+
+/// The images of one file are bounded together by `--max-pixels`, not each alone: four
+/// image entries of one 16k x 16k PNG took 5.2 GB.
+#[test]
+fn a_files_images_are_bounded_in_all_by_max_pixels() {
+    let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 0, 0, 0, 0]).unwrap();
+    let png = crate::png::encode(&img);
+    let (mut bin, mut views) = (vec![], vec![]);
+    let p = view(&mut bin, &mut views, &f32s(&SQUARE[..9]));
+    let uv = view(
+        &mut bin,
+        &mut views,
+        &f32s(&[0.25, 0.5, 0.25, 0.5, 0.25, 0.5]),
+    );
+    let i = view(&mut bin, &mut views, &png);
+    let primitive =
+        |m: usize| json!({ "attributes": { "POSITION": 0, "TEXCOORD_0": 1 }, "material": m });
+    let material =
+        |t: usize| json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": t } } });
+    let doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [primitive(0), primitive(1)] }],
+        "materials": [material(0), material(1)],
+        "textures": [{ "source": 0 }, { "source": 1 }],
+        "images": [{ "bufferView": i, "mimeType": "image/png" }, { "bufferView": i, "mimeType": "image/png" }],
+        "accessors": [
+            { "bufferView": p, "componentType": 5126, "count": 3, "type": "VEC3" },
+            { "bufferView": uv, "componentType": 5126, "count": 3, "type": "VEC2" },
+        ],
+        "bufferViews": views,
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_gltf(doc, &bin, dir.path());
+    let limits = |pixels| crate::limits::Limits {
+        pixels,
+        ..Default::default()
+    };
+    super::load_with(&path, &limits(4)).unwrap();
+    let e = super::load_with(&path, &limits(3)).unwrap_err().to_string();
+    assert!(
+        e.contains("images[1]") && e.contains("past 3 pixels in all (--max-pixels)"),
+        "{e}"
+    );
+}
+
 #[test]
 fn base_color_textures_are_decoded_from_srgb_and_transformed() {
     // A 2 x 1 texture: left texel sRGB 188 (linear ~0.5), right texel black with alpha 0.

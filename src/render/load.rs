@@ -213,7 +213,9 @@ struct Textures<'a> {
     texels: Vec<Texel>,
     /// Where each texel was read, in `texels` order.
     paths: Vec<PathBuf>,
-    index: HashMap<PathBuf, usize>,
+    /// Each file read ([`crate::input::file_key`]): its texel, and the SHA-256 it was
+    /// checked against.
+    index: HashMap<PathBuf, (usize, [u8; 32])>,
 }
 
 impl<'a> Textures<'a> {
@@ -248,7 +250,12 @@ impl<'a> Textures<'a> {
     /// recorded as `sha`. Errors name the forest that refers to the texture, then the texture.
     fn texel(&mut self, rel: &str, sha: &[u8; 32]) -> Result<usize, LoadError> {
         let file = self.dir.join(rel);
-        if let Some(&i) = self.index.get(&file) {
+        // A file named again (however its path is spelt) is decoded once; a record that
+        // disagrees with what it held is checked as if it were new, and refused.
+        let key = crate::input::file_key(&file);
+        if let Some(&(i, known)) = self.index.get(&key)
+            && known == *sha
+        {
             return Ok(i);
         }
         let forest = self.forest;
@@ -286,7 +293,7 @@ impl<'a> Textures<'a> {
         }
         self.texels.push(t);
         self.paths.push(file.clone());
-        self.index.insert(file, self.texels.len() - 1);
+        self.index.insert(key, (self.texels.len() - 1, *sha));
         Ok(self.texels.len() - 1)
     }
 }
