@@ -4,8 +4,11 @@
 
 use serde::de::DeserializeOwned;
 
-/// `bytes` as a `T`; an error is (JSON path, or empty for the document; problem).
+/// `bytes` as a `T`; an error is (JSON path, or empty for the document; problem). A UTF-8
+/// byte-order mark before the document, which some Windows editors write, is skipped (RFC
+/// 8259 lets a parser ignore it), so lines and columns count from what an editor shows.
 pub fn parse<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, (String, String)> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let de = &mut serde_json::Deserializer::from_slice(bytes);
     let value: T = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
         let path = e.path().to_string();
@@ -32,5 +35,8 @@ mod tests {
         let (path, why) = super::parse::<Doc>(b"{\"a\": 1} {\"a\": 2}").unwrap_err();
         assert_eq!(path, "");
         assert!(why.contains("trailing characters"), "{why}");
+        // A byte-order mark is no error; anything else before the document is.
+        assert_eq!(super::parse::<Doc>(b"\xEF\xBB\xBF{\"a\": 3}").unwrap().a, 3);
+        assert!(super::parse::<Doc>(b"\xEF\xBB{\"a\": 3}").is_err());
     }
 }

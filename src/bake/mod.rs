@@ -562,3 +562,21 @@ fn albedo(grid: &Grid, scans: &[AxisScan]) -> [Vec<[f32; 3]>; 2] {
         albedo
     })
 }
+
+#[cfg(test)]
+mod pattern_tests {
+    /// The patterns take the regex crate's whole syntax, Unicode classes and scripts
+    /// included (`\p{L}` was refused as an unknown property), case-insensitively.
+    #[test]
+    fn material_patterns_take_unicode_classes() {
+        let p = super::pattern("--foliage", r"^\p{L}+$").unwrap();
+        assert!(p.is_match("Blätter") && !p.is_match("leaf_01"));
+        let p = super::pattern("--foliage", r"\p{Greek}").unwrap();
+        assert!(p.is_match("φύλλα"));
+        assert!(
+            super::pattern("--foliage", "LEAF")
+                .unwrap()
+                .is_match("leaf")
+        );
+    }
+}

@@ -124,11 +124,14 @@ impl Coverage {
 
 /// What Cryptomatte calls a scene's objects: a species by its name, a tree by its species and
 /// its record's index in the `.instances` file (`conifer/1234`, the row of `texel export`),
-/// the terrain `terrain` and an opaque sky `sky`.
+/// the terrain `terrain` and an opaque sky `sky` (`terrain (ground)` and `sky (background)`
+/// where a species has taken the plain name: a matte must tell them apart).
 pub struct MatteNames {
     species: Vec<String>,
     /// Each tree's species.
     looks: Vec<u16>,
+    terrain: String,
+    sky: String,
 }
 
 impl MatteNames {
@@ -137,14 +140,27 @@ impl MatteNames {
         let looks = (0..scene.instances.len() as u32)
             .map(|i| scene.instances.get(i).look)
             .collect();
-        MatteNames { species, looks }
+        let free = |plain: &str, other: &str| {
+            if species.iter().any(|s| s == plain) {
+                format!("{plain} ({other})")
+            } else {
+                plain.to_string()
+            }
+        };
+        let (terrain, sky) = (free("terrain", "ground"), free("sky", "background"));
+        MatteNames {
+            species,
+            looks,
+            terrain,
+            sky,
+        }
     }
 
     /// The name of a species code (the terrain and the sky are their own species).
     pub fn species(&self, code: u32) -> &str {
         match code {
-            TERRAIN => "terrain",
-            SKY => "sky",
+            TERRAIN => &self.terrain,
+            SKY => &self.sky,
             s => self.species.get(s as usize).map_or("?", |s| s.as_str()),
         }
     }

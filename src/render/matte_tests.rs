@@ -96,3 +96,23 @@ fn coverages_add_up_to_alpha_and_recording_them_changes_no_pixel() {
         assert!(sky > 0, "{method:?}: some pixel sees only the sky");
     }
 }
+
+/// A species may be called `terrain` or `sky`: the ground and the background then take
+/// names of their own, so a Cryptomatte id picks out one of them, not both.
+#[test]
+fn a_species_named_terrain_does_not_share_the_grounds_matte() {
+    use super::matte::{MatteNames, SKY};
+    let (scene, _) = two_trees();
+    let plain = MatteNames::new(vec!["beech".into()], &scene);
+    assert_eq!(
+        (plain.species(TERRAIN), plain.species(SKY)),
+        ("terrain", "sky")
+    );
+    let taken = MatteNames::new(vec!["terrain".into()], &scene);
+    assert_eq!(taken.species(0), "terrain");
+    assert_eq!(taken.species(TERRAIN), "terrain (ground)");
+    assert_eq!(taken.tree(TERRAIN), "terrain (ground)");
+    assert_eq!(taken.tree(0), "terrain/0");
+    let sky = MatteNames::new(vec!["sky".into()], &scene);
+    assert_eq!(sky.species(SKY), "sky (background)");
+}
