@@ -324,7 +324,7 @@ pub struct Cli {
     /// Most trees one forest may have.
     #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().trees, value_parser = primitive_count)]
     pub max_trees: u64,
-    /// Most pixels one image may have, read or written.
+    /// Most pixels one image may have, read or written, and a glTF's images together.
     #[arg(long, global = true, value_name = "N", default_value_t = Limits::default().pixels, value_parser = at_least_one)]
     pub max_pixels: u64,
     /// Most trees of a forest to render that may stand over one tree's base (within their

@@ -126,6 +126,9 @@ pub fn load(
                 .find(|(k, sha, _)| *k == key && *sha == record.texel_sha256)
             {
                 inputs.species_model[s] = Some(*m);
+                if !inputs.dependencies.contains(&file) {
+                    inputs.dependencies.push(file);
+                }
                 continue;
             }
             let (model, files) = source_model(path, &file, &record.texel_sha256, limits)?;

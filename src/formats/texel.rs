@@ -227,8 +227,9 @@ fn has_wood_normals(texel: &Texel) -> bool {
     texel.levels.iter().any(|l| !l.wood_normals.is_empty())
 }
 
-/// Whether a texture draws solids: only then are the solid channels written, in a 1.3 file;
-/// a texture without is written as 1.2 wrote it, byte for byte.
+/// Whether a texture draws solids: only then are the solid channels written (a 1.3 file, or
+/// 1.4 with the wood's normals); a texture with neither is written as 1.2 wrote it, byte for
+/// byte.
 fn has_solids(texel: &Texel) -> bool {
     texel.levels.iter().any(Level::has_solid)
 }
@@ -810,9 +811,14 @@ fn check_values(level: &Level) -> Result<(), TexelError> {
             "leaf-normal moment {m:?} in a level of {dims:?} cells is not one of unit normals"
         )));
     }
-    if let Some(m) = level.wood_normals.iter().find(|m| !moment(m)) {
+    if let Some((i, m)) = level
+        .wood_normals
+        .iter()
+        .enumerate()
+        .find(|(_, m)| !moment(m))
+    {
         return Err(TexelError::Payload(format!(
-            "wood-normal moment {m:?} in a level of {dims:?} cells is not one of unit normals"
+            "normals_wood: the wood-normal moment {m:?} of cell {i} in a level of {dims:?} cells is not one of unit normals"
         )));
     }
     Ok(())

@@ -58,6 +58,8 @@ pub(super) struct Document {
     pub unbacked_values: u64,
     /// Pixels of images decoded so far, bounded in all by `--max-pixels`.
     pub pixels_decoded: u64,
+    /// Images decoded so far, by index.
+    pub images: std::collections::HashMap<usize, super::image::Decoded>,
 }
 
 /// Accessor values a file may ask for without the bytes to hold them (accessors without a
@@ -168,6 +170,7 @@ impl Document {
             limits: Limits::default(),
             unbacked_values: 0,
             pixels_decoded: 0,
+            images: Default::default(),
         })
     }
 

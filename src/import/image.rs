@@ -1,7 +1,7 @@
 //! Base-colour textures: decoded once from PNG or JPEG (embedded, data URI or file), kept as
 //! 8-bit sRGB and sampled bilinearly in linear space with the glTF sampler's wrap modes.
 
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use glam::{Vec2, Vec4};
 use gltf_json as json;
@@ -20,12 +20,21 @@ pub enum WrapMode {
     Clamp,
 }
 
+/// An image's pixels as decoded, for the textures that name it.
+pub(super) struct Decoded {
+    width: u32,
+    height: u32,
+    texels: Arc<[[u8; 4]]>,
+    has_alpha: bool,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
     pub width: u32,
     pub height: u32,
-    /// Row-major RGBA: RGB sRGB-encoded, alpha linear, as the glTF specification has it.
-    pub texels: Vec<[u8; 4]>,
+    /// Row-major RGBA: RGB sRGB-encoded, alpha linear, as the glTF specification has it;
+    /// shared by the textures that name one image.
+    pub texels: Arc<[[u8; 4]]>,
     pub wrap: [WrapMode; 2],
     pub nearest: bool,
     /// Whether the image has an alpha channel (without one, alpha is 1 everywhere).
@@ -150,6 +159,17 @@ pub(super) fn load_texture(
             format!("image {image_index} does not exist"),
         ));
     };
+    // Textures that name one image (with their own samplers) share its pixels, decoded once.
+    if let Some(d) = doc.images.get(&image_index) {
+        return Ok(Texture {
+            width: d.width,
+            height: d.height,
+            texels: Arc::clone(&d.texels),
+            wrap,
+            nearest,
+            has_alpha: d.has_alpha,
+        });
+    }
     let (uri, view) = (image.uri.clone(), image.buffer_view.map(|v| v.value()));
     let bytes = match (uri, view) {
         (Some(uri), _) => doc.resolve_uri(&uri, &here, crate::input::MAX_IMAGE)?,
@@ -186,8 +206,9 @@ pub(super) fn load_texture(
         }
     };
     // Each image is bounded on its own by its sides; all of a file's together by
-    // `--max-pixels`, counted before decoding (images shared by name are decoded per texture).
-    // (An image whose header cannot be read is refused by the decoder, which says why.)
+    // `--max-pixels`, each counted from its header before it is decoded (entries that name
+    // one file are counted, and decoded, each). (An image whose header cannot be read is
+    // refused by the decoder, which says why.)
     let (w, h) = dimensions(&bytes).unwrap_or((0, 0));
     doc.pixels_decoded += u64::from(w) * u64::from(h);
     if doc.pixels_decoded > doc.limits.pixels {
@@ -203,7 +224,16 @@ pub(super) fn load_texture(
     let (decoded, has_alpha) =
         decode(&bytes).map_err(|e| ImportError::unsupported(&path, &here, e))?;
     let (width, height) = decoded.dimensions();
-    let texels = decoded.pixels().map(|p| p.0).collect();
+    let texels: Arc<[[u8; 4]]> = decoded.pixels().map(|p| p.0).collect();
+    doc.images.insert(
+        image_index,
+        Decoded {
+            width,
+            height,
+            texels: Arc::clone(&texels),
+            has_alpha,
+        },
+    );
     Ok(Texture {
         width,
         height,
@@ -255,7 +285,7 @@ mod tests {
                 let t = Texture {
                     width: 3,
                     height: 2,
-                    texels: vec![[255, 128, 0, 200]; 6],
+                    texels: vec![[255, 128, 0, 200]; 6].into(),
                     wrap: [wrap; 2],
                     nearest,
                     has_alpha: true,

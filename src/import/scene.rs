@@ -246,9 +246,10 @@ fn visit(
         ));
     }
     let mesh = node.mesh.map(|m| m.value());
-    collect_views(doc, b, index, world)?;
     let children: Vec<usize> = node.children.iter().flatten().map(|c| c.value()).collect();
-    if node.skin.is_some() {
+    let skinned = node.skin.is_some();
+    collect_views(doc, b, index, world)?;
+    if skinned {
         doc.warn(format!(
             "{}: nodes[{index}] is skinned; baked in its bind pose",
             path.display()
@@ -306,7 +307,7 @@ pub(super) fn camera_of(
 /// transform: the views a render may be asked to use. A light index that names no light is
 /// refused; an orthographic camera is only listed by name (a render draws perspective ones).
 fn collect_views(
-    doc: &Document,
+    doc: &mut Document,
     b: &mut Builder,
     index: usize,
     world: DMat4,
@@ -358,14 +359,16 @@ fn collect_views(
     };
     if l.type_ == Checked::Valid(json::extensions::scene::khr_lights_punctual::Type::Directional) {
         // A light's direction is its node's -Z; a transform that scales it to nothing (a zero
-        // scale, or one f32 rounds to zero) leaves the sun no direction to come from.
+        // scale, as exporters hide objects, or one f32 rounds to zero) leaves the sun no
+        // direction to come from: such a light is no sun (a bake never reads lights).
         let towards = axis(DVec3::Z);
         if !(towards.is_finite() && towards.length_squared() > 0.5) {
-            return Err(ImportError::invalid(
-                &doc.path,
-                format!("nodes[{index}]"),
-                "the directional light has no direction: its node's transform scales it to nothing (or beyond f64)",
-            ));
+            let warning = format!(
+                "{}: nodes[{index}]: its directional light is not a sun: the node's transform scales it to nothing (or beyond f64)",
+                doc.path.display()
+            );
+            doc.warn(warning);
+            return Ok(());
         }
         b.suns.push(SceneSun {
             name: l

@@ -267,6 +267,15 @@ fn a_files_images_are_bounded_in_all_by_max_pixels() {
         e.contains("images[1]") && e.contains("past 3 pixels in all (--max-pixels)"),
         "{e}"
     );
+    // Two textures of one image (their own samplers, say) decode it once, and count it once.
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    doc["textures"][1]["source"] = json!(0);
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let m = super::load_with(&path, &limits(2)).unwrap();
+    assert!(std::sync::Arc::ptr_eq(
+        &m.mesh.textures[0].texels,
+        &m.mesh.textures[1].texels
+    ));
 }
 
 #[test]
@@ -395,11 +404,6 @@ fn impossible_nodes_are_refused_and_orthographic_cameras_named() {
         ),
         (|d| d["nodes"][2]["camera"] = json!(4), "nodes[2].camera"),
         (
-            // A sun scaled to nothing has no direction to shine from.
-            |d| d["nodes"][3]["scale"] = json!([0.0, 0.0, 0.0]),
-            "nodes[3]: the directional light has no direction",
-        ),
-        (
             // Shared children make a walk's paths exponential in depth: refused at once.
             |d| d["nodes"][1]["children"] = json!([2]),
             "nodes[1].children: node 2 is already a child of nodes[0]",
@@ -417,6 +421,19 @@ fn impossible_nodes_are_refused_and_orthographic_cameras_named() {
         let e = load(&path).unwrap_err().to_string();
         assert!(e.contains(needle), "{needle:?} not in {e:?}");
     }
+    // A sun scaled to nothing (as exporters hide objects) has no direction to shine from: it
+    // is no sun, with a warning, and the rest of the file is read.
+    let mut doc = good.clone();
+    doc["nodes"][3]["scale"] = json!([0.0, 0.0, 0.0]);
+    let m = load(&write_gltf(doc, &bin, dir.path())).unwrap();
+    assert!(m.suns.is_empty());
+    assert!(
+        m.warnings
+            .iter()
+            .any(|w| w.contains("nodes[3]") && w.contains("not a sun")),
+        "{:?}",
+        m.warnings
+    );
     // A rotation exporters round off unit length is a rotation.
     let mut doc = good.clone();
     doc["nodes"][1]["rotation"] = json!([0.0, 0.0, 0.0, 0.999]);

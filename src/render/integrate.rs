@@ -387,12 +387,16 @@ fn scatter(
     // on its density gradient, and from a point up to one layer deep a ray towards a sun at
     // angle theta to that normal leaves after the layer over cos theta (capped at four
     // layers, where grazing light is faint anyway).
-    let wood_by_normals = !foliage_scatters
-        && active.iter().any(|a| {
-            !scene.texel_of(a.instance).levels[a.level]
-                .wood_normals
-                .is_empty()
-        });
+    // The wood's normal distribution where at least half the wood there carries one: the
+    // textures whose wood the sample reads, not any the ray passes (a 1.3 tree beside a 1.4
+    // one keeps its gradient). Read before the shadow ray, whose start it decides.
+    let wood_moment = if foliage_scatters {
+        None
+    } else {
+        let (moment, covered) = wood_moment(scene, active, s.ts);
+        (covered > 0.0 && covered >= 0.5 * m.wood).then(|| moment.map(|v| v / covered))
+    };
+    let wood_by_normals = wood_moment.is_some();
     let wood_normal = if foliage_scatters || wood_by_normals {
         None
     } else {
@@ -464,15 +468,14 @@ fn scatter(
     // Wood thinner than a cell has no surface its gradient can say: it is shaded as the
     // surfaces its cell holds, from their normals' distribution, as leaves are (a branch's
     // visible half, lit where it faces the sun).
-    if wood_by_normals {
-        let (moment, covered) = wood_moment(scene, active, s.ts);
-        if covered > 0.0 {
+    match wood_moment {
+        Some(moment) => {
             let u = s.draws.leaf(segment);
-            let normals = VisibleNormals::new(moment.map(|v| v / covered), -dir).lattice(u);
-            return shade_leaves(scene, albedo, &normals, lit, -dir);
+            let normals = VisibleNormals::new(moment, -dir).lattice(u);
+            shade_leaves(scene, albedo, &normals, lit, -dir)
         }
+        None => shade(scene, albedo, wood_normal, lit, -dir),
     }
-    shade(scene, albedo, wood_normal, lit, -dir)
 }
 
 /// What the instances containing a sample say: their extinction by part, each part's albedo
@@ -597,10 +600,18 @@ fn moment_sum(
 ) -> [f32; 6] {
     let mut sum = [0.0f32; 6];
     for a in active {
+        // The instances `mix` reads: not those whose bricks the walk found empty here, nor
+        // one whose solid holds the point (the sample's extinction leaves them out too).
+        if a.found_empty_at(ts) {
+            continue;
+        }
         let inst = scene.instances.get(a.instance);
         let look = &scene.looks[inst.look as usize];
         let level = &scene.texels[look.texel].levels[a.level];
         let c = a.c0 + a.dc * ts;
+        if level.has_solid() && level.in_solid(c, look.foliage) {
+            continue;
+        }
         let found = if part == 1 {
             level.foliage_leaves(c)
         } else {

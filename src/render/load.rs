@@ -141,6 +141,7 @@ pub fn load(request: &SceneRequest) -> Result<LoadedScene, LoadError> {
     check_heights(path, &forest, &looks, &textures.texels)?;
     check_crowding(path, &forest, &looks, &textures.texels, &request.limits)?;
     dependencies.extend(textures.paths.iter().cloned());
+    dependencies.extend(textures.other_spellings.iter().cloned());
     let models = |dependencies: &mut Vec<PathBuf>| {
         Models::check(
             &textures.texels,
@@ -216,6 +217,9 @@ struct Textures<'a> {
     /// Each file read ([`crate::input::file_key`]): its texel, and the SHA-256 it was
     /// checked against.
     index: HashMap<PathBuf, (usize, [u8; 32])>,
+    /// Other paths the forest names a file read by (a depfile lists them too: a link among
+    /// them may be moved to another file).
+    other_spellings: Vec<PathBuf>,
 }
 
 impl<'a> Textures<'a> {
@@ -227,6 +231,7 @@ impl<'a> Textures<'a> {
             texels: Vec::new(),
             paths: Vec::new(),
             index: HashMap::new(),
+            other_spellings: Vec::new(),
         }
     }
 
@@ -256,6 +261,9 @@ impl<'a> Textures<'a> {
         if let Some(&(i, known)) = self.index.get(&key)
             && known == *sha
         {
+            if self.paths[i] != file && !self.other_spellings.contains(&file) {
+                self.other_spellings.push(file);
+            }
             return Ok(i);
         }
         let forest = self.forest;

@@ -1680,3 +1680,60 @@ fn a_solids_shadow_is_the_spheres_cached_or_exact() {
     }
     assert!(checked > 300, "{checked}");
 }
+
+/// A sample's wood is shaded as its own texture says: a texture without wood normals (baked
+/// before texel 1.4) keeps its gradient's normal beside one that has them, whose crown the
+/// ray crosses at the same point (the choice was once any texture's along the ray).
+#[test]
+fn wood_is_shaded_by_its_own_textures_normals_not_a_neighbours() {
+    let wood = uniform_texel(
+        [8, 8, 8],
+        0.5,
+        DVec3::new(-2.0, 0.0, -2.0),
+        1.0,
+        [0.3, 0.5, 0.2],
+    );
+    let mut crown = wood.clone();
+    for l in &mut crown.levels {
+        l.density.swap(0, 1);
+        l.gradient.swap(0, 1);
+    }
+    let mut flagged = crown.clone();
+    for l in &mut flagged.levels {
+        l.wood_normals = vec![[0.0, 1.0, 0.0, 0.0, 0.0, 0.0]; l.cell_count()];
+    }
+    let image = |second: &Texel| {
+        let scene = Scene::new(
+            DVec3::new(1.0, 5.0, 12.0),
+            vec![wood.clone(), second.clone()],
+            vec![look(), Look { texel: 1, ..look() }],
+            &[
+                placed(DVec3::ZERO),
+                Placed {
+                    look: 1,
+                    ..placed(DVec3::new(0.7, 0.3, 0.4))
+                },
+            ],
+            None,
+            Lighting {
+                sun: Sun::from_angles(220.0, 35.0, std::f32::consts::PI),
+                shading: Shading::default(),
+                sky: None,
+            },
+        );
+        let camera =
+            Camera::look_at(scene.origin, DVec3::new(0.5, 1.5, 0.0), 40.0, 32, 24).unwrap();
+        let settings = RenderSettings {
+            method: super::Method::Texel,
+            spp: 4,
+            ..RenderSettings::default()
+        };
+        super::render(&scene, &camera, &settings, &|_| {}).rgba
+    };
+    let (plain, beside_normals) = (image(&crown), image(&flagged));
+    assert!(plain.iter().flatten().any(|&v| v > 0.0));
+    assert!(
+        plain == beside_normals,
+        "the neighbour's normals shaded this wood"
+    );
+}
