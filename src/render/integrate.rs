@@ -386,35 +386,31 @@ fn scatter(
     // shading, and the ray leaves one layer towards the sun. Without it, the wood is a surface
     // on its density gradient, and from a point up to one layer deep a ray towards a sun at
     // angle theta to that normal leaves after the layer over cos theta (capped at four
-    // layers, where grazing light is faint anyway).
-    // The wood's normal distribution where at least half the wood there carries one: the
-    // textures whose wood the sample reads, not any the ray passes (a 1.3 tree beside a 1.4
-    // one keeps its gradient). Read before the shadow ray, whose start it decides.
-    let wood_moment = if foliage_scatters {
-        None
-    } else {
-        let (moment, covered) = wood_moment(scene, active, s.ts);
-        (covered > 0.0 && covered >= 0.5 * m.wood).then(|| moment.map(|v| v / covered))
+    // layers, where grazing light is faint anyway). The distribution is used where at least
+    // half the wood at the sample carries one (a 1.3 tree beside a 1.4 one keeps its
+    // gradient), and read before the shadow ray, whose start it decides.
+    // Read once, and only for a wood sample that casts its shadow ray or is lit.
+    let wood_moment = std::cell::OnceCell::new();
+    let wood_moment = || {
+        *wood_moment.get_or_init(|| {
+            let (moment, covered) = wood_moment_at(scene, active, s.ts);
+            (covered > 0.0 && covered >= 0.5 * m.wood).then(|| moment.map(|v| v / covered))
+        })
     };
-    let wood_by_normals = wood_moment.is_some();
-    let wood_normal = if foliage_scatters || wood_by_normals {
-        None
-    } else {
-        (-m.gradient_wood).try_normalize()
-    };
-    let p = if foliage_scatters {
-        dir * s.ts
-    } else if wood_by_normals {
-        dir * s.ts + sun.direction * s.layer
-    } else {
-        let rise = wood_normal.map_or(1.0, |n| n.dot(sun.direction).max(0.25));
-        dir * s.ts + sun.direction * (s.layer / rise)
-    };
+    let wood_normal = || (-m.gradient_wood).try_normalize();
     let lit = if !scene.shadows {
         sun_radiance(scene)
     } else {
         roulette(s.share, march, strata, shadow_rays, || {
             // Only for a shadow ray actually cast: the roulette skips most.
+            let p = if foliage_scatters {
+                dir * s.ts
+            } else if wood_moment().is_some() {
+                dir * s.ts + sun.direction * s.layer
+            } else {
+                let rise = wood_normal().map_or(1.0, |n| n.dot(sun.direction).max(0.25));
+                dir * s.ts + sun.direction * (s.layer / rise)
+            };
             let mut own = [OwnTree::default(); MAX_OWN];
             let mut n = 0;
             let cos_g = (-dir).dot(sun.direction);
@@ -468,13 +464,13 @@ fn scatter(
     // Wood thinner than a cell has no surface its gradient can say: it is shaded as the
     // surfaces its cell holds, from their normals' distribution, as leaves are (a branch's
     // visible half, lit where it faces the sun).
-    match wood_moment {
+    match wood_moment() {
         Some(moment) => {
             let u = s.draws.leaf(segment);
             let normals = VisibleNormals::new(moment, -dir).lattice(u);
             shade_leaves(scene, albedo, &normals, lit, -dir)
         }
-        None => shade(scene, albedo, wood_normal, lit, -dir),
+        None => shade(scene, albedo, wood_normal(), lit, -dir),
     }
 }
 
@@ -575,29 +571,20 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
 /// over the instances there, each weighted by its foliage extinction (divide by the total for
 /// the mixture's moment). Read only for a leaf that is lit: most samples are not.
 fn leaf_moment(scene: &Scene, active: &[Active], ts: f32) -> [f32; 6] {
-    part_moment(scene, active, ts, 1)
+    moment_sum(scene, active, ts, 1).0
 }
 
 /// The wood's normal moment at `ts`, as [`leaf_moment`] the foliage's, and the wood
 /// extinction it covers: instances whose textures have no wood moments (before texel 1.4)
 /// add none.
-fn wood_moment(scene: &Scene, active: &[Active], ts: f32) -> ([f32; 6], f32) {
+fn wood_moment_at(scene: &Scene, active: &[Active], ts: f32) -> ([f32; 6], f32) {
+    moment_sum(scene, active, ts, 0)
+}
+
+/// A part's (`[wood, foliage]`) normal moment at `ts`, summed over the instances there
+/// weighted by their extinction of it, and that extinction.
+fn moment_sum(scene: &Scene, active: &[Active], ts: f32, part: usize) -> ([f32; 6], f32) {
     let mut covered = 0.0;
-    let sum = moment_sum(scene, active, ts, 0, &mut covered);
-    (sum, covered)
-}
-
-fn part_moment(scene: &Scene, active: &[Active], ts: f32, part: usize) -> [f32; 6] {
-    moment_sum(scene, active, ts, part, &mut 0.0)
-}
-
-fn moment_sum(
-    scene: &Scene,
-    active: &[Active],
-    ts: f32,
-    part: usize,
-    covered: &mut f32,
-) -> [f32; 6] {
     let mut sum = [0.0f32; 6];
     for a in active {
         // The instances `mix` reads: not those whose bricks the walk found empty here, nor
@@ -625,13 +612,13 @@ fn moment_sum(
         } else {
             density
         });
-        *covered += sigma;
+        covered += sigma;
         // The moment turns with the instance: M' = R M R^T, R a turn about +Y.
         for (s, v) in sum.iter_mut().zip(turn_moment(moment, inst.cos, inst.sin)) {
             *s += v * sigma;
         }
     }
-    sum
+    (sum, covered)
 }
 
 /// The leaf-normal moment `[xx, yy, zz, xy, xz, yz]` of model space in the renderer's frame,
