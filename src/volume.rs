@@ -40,6 +40,19 @@ pub const NO_SELF_SHADOW: [f32; 6] = [1.0; 6];
 /// The leaf-normal moment of leaves facing every way alike: `E[n n^T] = I / 3`.
 pub const ISOTROPIC_LEAVES: [f32; 6] = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.0, 0.0, 0.0];
 
+/// The second moment `n n^T` of one unit normal, `[xx, yy, zz, xy, xz, yz]`: what a surface
+/// adds to its cell's normal distribution (`Level::leaves`, `Level::wood_normals`).
+pub fn normal_moment(n: glam::Vec3) -> [f32; 6] {
+    [
+        n.x * n.x,
+        n.y * n.y,
+        n.z * n.z,
+        n.x * n.y,
+        n.x * n.z,
+        n.y * n.z,
+    ]
+}
+
 /// `m` held to what a second moment of unit vectors can be (diagonal in [0, 1], the rest in
 /// [-1, 1]): sums in floating point may overshoot by a rounding.
 pub fn unit_moment(m: [f32; 6]) -> [f32; 6] {

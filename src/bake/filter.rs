@@ -19,6 +19,9 @@ pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
     if level.has_solid() {
         out.solid = [0, 1].map(|_| vec![0.0; out.cell_count()]);
     }
+    if !level.wood_normals.is_empty() {
+        out.wood_normals = vec![crate::volume::ISOTROPIC_LEAVES; out.cell_count()];
+    }
     for z in 0..dims[2] {
         for y in 0..dims[1] {
             for x in 0..dims[0] {
@@ -65,8 +68,7 @@ pub fn reduce(level: &Level, extinction_scale: f64) -> Level {
                 }
                 out.leaves[o] = reduced_moment(level, &level.leaves, 1, [x, y, z]);
                 if !level.wood_normals.is_empty() {
-                    out.wood_normals
-                        .push(reduced_moment(level, &level.wood_normals, 0, [x, y, z]));
+                    out.wood_normals[o] = reduced_moment(level, &level.wood_normals, 0, [x, y, z]);
                 }
             }
         }

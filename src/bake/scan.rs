@@ -358,10 +358,12 @@ fn scan_column(
                 crossings[part][l] += 1;
             }
             if h.is_foliage || seen {
-                let [x, y, z] = h.normal;
-                let w = 1.0 / (x.abs() + y.abs() + z.abs());
-                let m = [x * x, y * y, z * z, x * y, x * z, y * z];
-                for (sum, m) in normal_sum[part][l].iter_mut().zip(m) {
+                let n = glam::Vec3::from(h.normal);
+                let w = 1.0 / n.abs().element_sum();
+                for (sum, m) in normal_sum[part][l]
+                    .iter_mut()
+                    .zip(crate::volume::normal_moment(n))
+                {
                     *sum += w * m;
                 }
                 normal_weight[part][l] += w;

@@ -1146,15 +1146,9 @@ pub(crate) mod tests {
             l.wood_normals = (0..l.cell_count())
                 .map(|_| {
                     let mut c = || s.unit() as f32 - 0.5;
-                    let n = glam::Vec3::new(c(), c(), c()).normalize_or(glam::Vec3::Y);
-                    [
-                        n.x * n.x,
-                        n.y * n.y,
-                        n.z * n.z,
-                        n.x * n.y,
-                        n.x * n.z,
-                        n.y * n.z,
-                    ]
+                    crate::volume::normal_moment(
+                        glam::Vec3::new(c(), c(), c()).normalize_or(glam::Vec3::Y),
+                    )
                 })
                 .collect();
         }

@@ -224,10 +224,10 @@ fn accessors_of_zeros_are_bounded() {
     );
 }
 
-/// The images of one file are bounded together by `--max-pixels`, not each alone: four
-/// image entries of one 16k x 16k PNG took 5.2 GB.
-#[test]
-fn a_files_images_are_bounded_in_all_by_max_pixels() {
+/// A triangle's positions and texture coordinates and a 2 x 1 PNG (left texel sRGB 188,
+/// linear ~0.5; right texel black with alpha 0), each in a view of one buffer: the buffer,
+/// the views, and the views' indices.
+fn textured_triangle() -> (Vec<u8>, Vec<Value>, [usize; 3]) {
     let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 0, 0, 0, 0]).unwrap();
     let png = crate::png::encode(&img);
     let (mut bin, mut views) = (vec![], vec![]);
@@ -238,6 +238,14 @@ fn a_files_images_are_bounded_in_all_by_max_pixels() {
         &f32s(&[0.25, 0.5, 0.25, 0.5, 0.25, 0.5]),
     );
     let i = view(&mut bin, &mut views, &png);
+    (bin, views, [p, uv, i])
+}
+
+/// The images of one file are bounded together by `--max-pixels`, not each alone: four
+/// image entries of one 16k x 16k PNG took 5.2 GB.
+#[test]
+fn a_files_images_are_bounded_in_all_by_max_pixels() {
+    let (bin, views, [p, uv, i]) = textured_triangle();
     let primitive =
         |m: usize| json!({ "attributes": { "POSITION": 0, "TEXCOORD_0": 1 }, "material": m });
     let material =
@@ -280,17 +288,7 @@ fn a_files_images_are_bounded_in_all_by_max_pixels() {
 
 #[test]
 fn base_color_textures_are_decoded_from_srgb_and_transformed() {
-    // A 2 x 1 texture: left texel sRGB 188 (linear ~0.5), right texel black with alpha 0.
-    let img = image::RgbaImage::from_raw(2, 1, vec![188, 188, 188, 255, 0, 0, 0, 0]).unwrap();
-    let png = crate::png::encode(&img);
-    let (mut bin, mut views) = (vec![], vec![]);
-    let p = view(&mut bin, &mut views, &f32s(&SQUARE[..9]));
-    let uv = view(
-        &mut bin,
-        &mut views,
-        &f32s(&[0.25, 0.5, 0.25, 0.5, 0.25, 0.5]),
-    );
-    let i = view(&mut bin, &mut views, &png);
+    let (bin, views, [p, uv, i]) = textured_triangle();
     let doc = json!({
         "extensionsUsed": ["KHR_texture_transform"],
         "scenes": [{ "nodes": [0] }],

@@ -1067,16 +1067,7 @@ fn pixels_at_edges_are_rendered_again_at_the_edges_count() {
 #[test]
 fn leaf_moments_turn_with_the_instance() {
     let n = Vec3::new(0.3, -0.5, 0.81).normalize();
-    let moment = |n: Vec3| {
-        [
-            n.x * n.x,
-            n.y * n.y,
-            n.z * n.z,
-            n.x * n.y,
-            n.x * n.z,
-            n.y * n.z,
-        ]
-    };
+    let moment = crate::volume::normal_moment;
     for angle in [0.0f32, 0.7, 2.0, -2.9] {
         let (sin, cos) = angle.sin_cos();
         let inst = super::instances::TreeTransform {
