@@ -307,8 +307,8 @@ fn cell_size(s: &str) -> Result<f64, String> {
         finds the images too different."
 )]
 pub struct Cli {
-    /// Worker threads, 1 to 1024 (default: one per core). Results are identical for any
-    /// number.
+    /// Worker threads, 1 to 1024 (default: one per core; at most four per core are started,
+    /// with a warning). Results are identical for any number.
     #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
     pub threads: Option<u16>,
     /// Print nothing but errors and warnings.

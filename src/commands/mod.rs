@@ -14,9 +14,18 @@ pub use compare::{TOO_DIFFERENT, TooDifferent};
 use crate::cli::{Cli, Command};
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    if let Some(n) = cli.threads {
+    if let Some(asked) = cli.threads {
+        let n = usable_threads(asked as usize, std::thread::available_parallelism().ok());
+        if n < asked as usize {
+            warn(&format!(
+                "--threads {asked}: this machine runs {} at once; using {n} (the output is the \
+                 same for any number, and hundreds of threads on a few cores only wait on \
+                 each other)",
+                std::thread::available_parallelism().map_or(1, |c| c.get())
+            ));
+        }
         rayon::ThreadPoolBuilder::new()
-            .num_threads(n as usize)
+            .num_threads(n)
             .build_global()?;
     }
     texel_forest::output::remove_temporaries_on_interrupt();
@@ -30,6 +39,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Animate(args) => animate::run(&args, &limits, cli.quiet),
         Command::Export(args) => export::run(&args, &limits, cli.quiet),
     }
+}
+
+/// The worker threads to start when `asked` for on a machine that runs `cores` at once: at
+/// most four per core (and never fewer than eight allowed). More make nothing faster, and far
+/// more are much slower: each parallel step wakes every worker, and 1,024 of them took a
+/// half-second bake to 65 s on two cores.
+fn usable_threads(asked: usize, cores: Option<std::num::NonZeroUsize>) -> usize {
+    let cores = cores.map_or(1, |c| c.get());
+    asked.min((4 * cores).max(8))
 }
 
 /// Prints a warning the way every subcommand does (control characters from files escaped).
@@ -72,5 +90,20 @@ pub fn directory_of(output: &std::path::Path) -> std::path::PathBuf {
     match output.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => std::path::PathBuf::from("."),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::usable_threads;
+    use std::num::NonZeroUsize;
+
+    #[test]
+    fn threads_are_capped_at_four_a_core_but_never_below_eight() {
+        let cores = |n| NonZeroUsize::new(n);
+        assert_eq!(usable_threads(1024, cores(2)), 8);
+        assert_eq!(usable_threads(3, cores(2)), 3);
+        assert_eq!(usable_threads(1024, cores(64)), 256);
+        assert_eq!(usable_threads(100, None), 8);
     }
 }
