@@ -404,6 +404,32 @@ fn species_naming_one_texture_two_ways_share_one_model() {
     assert!(dep.contains("./trees/../trees/"), "{dep}");
 }
 
+/// A forest whose origin lies where 32-bit floats cannot tell its trees apart is refused for
+/// what it is, by the forest's name; it was blamed on the first model's node transform.
+#[test]
+fn a_forest_too_far_from_the_origin_for_gltf_floats_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    species_with_texels(d);
+    let o = place_on_mountain(d, &["--region=-60,-60,60,60"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut f = forest(d);
+    f.info.origin = [1e300, 0.0, -1e300];
+    for t in &mut f.instances {
+        t.position = f.info.origin;
+    }
+    std::fs::write(d.join("far.instances"), instances::encode(&f).unwrap()).unwrap();
+    let o = run(&["export", "far.instances", "-o", "far.glb"], d);
+    assert_error(
+        &o,
+        &["far.instances", "origin (1e300, 0, -1e300)", "32-bit floats"],
+    );
+    assert!(!d.join("far.glb").exists());
+    // The tables print positions as text, which holds them.
+    let o = run(&["export", "far.instances", "--csv", "far.csv"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn usage_errors_name_the_flags() {
     let dir = tempfile::tempdir().unwrap();

@@ -31,7 +31,9 @@ use self::copy::{CopiedMesh, copy_model};
 use self::glb::Gltf;
 use crate::formats::instances::Forest;
 use crate::import::ImportError;
+use crate::number::shortest;
 use crate::render::Placed;
+use crate::render::camera::EYE_LIMIT;
 
 /// The extension that places a mesh many times.
 pub const INSTANCING: &str = "EXT_mesh_gpu_instancing";
@@ -114,6 +116,21 @@ pub fn gltf(
     let mut out = Gltf::default();
     let mut roots = Vec::new();
     let forest = &inputs.forest;
+    // Trees lie within 21,000 km of the forest's origin (the format's centimetres in 32 bits),
+    // so the origin says whether 32-bit floats, glTF's, can tell them apart.
+    let o = forest.info.origin;
+    if !forest.instances.is_empty() && o.iter().any(|v| v.abs() > EYE_LIMIT) {
+        return Err(ExportError::Mismatch {
+            file: inputs.dependencies[0].clone(),
+            message: format!(
+                "the forest's origin ({}, {}, {}) lies beyond {EYE_LIMIT:e} m, where glTF's \
+                 32-bit floats cannot tell its trees apart",
+                shortest(o[0]),
+                shortest(o[1]),
+                shortest(o[2])
+            ),
+        });
+    }
     // Each model copied once, however many species draw it.
     let mut copied: Vec<Option<Vec<CopiedMesh>>> = inputs.models.iter().map(|_| None).collect();
     let mut trees: Vec<Vec<usize>> = vec![Vec::new(); forest.info.species.len()];

@@ -140,12 +140,20 @@ impl MatteNames {
         let looks = (0..scene.instances.len() as u32)
             .map(|i| scene.instances.get(i).look)
             .collect();
+        // The plain name, or the first of "terrain (ground)", "terrain (ground 2)", ... that
+        // no species has taken.
         let free = |plain: &str, other: &str| {
-            if species.iter().any(|s| s == plain) {
-                format!("{plain} ({other})")
-            } else {
-                plain.to_string()
+            let taken = |name: &str| species.iter().any(|s| s == name);
+            if !taken(plain) {
+                return plain.to_string();
             }
+            let mut name = format!("{plain} ({other})");
+            let mut n = 1u64;
+            while taken(&name) {
+                n += 1;
+                name = format!("{plain} ({other} {n})");
+            }
+            name
         };
         let (terrain, sky) = (free("terrain", "ground"), free("sky", "background"));
         MatteNames {

@@ -115,4 +115,17 @@ fn a_species_named_terrain_does_not_share_the_grounds_matte() {
     assert_eq!(taken.tree(0), "terrain/0");
     let sky = MatteNames::new(vec!["sky".into()], &scene);
     assert_eq!(sky.species(SKY), "sky (background)");
+    // A file that takes the second names too.
+    let both = MatteNames::new(
+        vec![
+            "terrain".into(),
+            "terrain (ground)".into(),
+            "sky".into(),
+            "sky (background)".into(),
+            "sky (background 2)".into(),
+        ],
+        &scene,
+    );
+    assert_eq!(both.species(TERRAIN), "terrain (ground 2)");
+    assert_eq!(both.species(SKY), "sky (background 3)");
 }
