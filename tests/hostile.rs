@@ -822,6 +822,34 @@ fn a_texture_beyond_the_renderers_f32_range_is_refused_naming_it() {
     assert!(!dir.path().join("big.exr").exists());
 }
 
+/// A forest placed for a model of another height than its texture's is refused, the two
+/// heights printed as numbers a person reads (1e-300 was printed as 300 digits).
+#[test]
+fn a_forest_placed_for_another_model_height_is_refused_in_few_words() {
+    use texel_forest::formats::instances;
+    let dir = small_forest();
+    let placed = std::fs::read(dir.path().join("forest.instances")).unwrap();
+    let mut forest = instances::decode(&placed).unwrap();
+    forest.info.species[0].model_height = 1e-300;
+    std::fs::write(
+        dir.path().join("odd.instances"),
+        instances::encode(&forest).unwrap(),
+    )
+    .unwrap();
+    let mut args = vec!["render", "odd.instances", "-o", "odd.exr"];
+    args.extend_from_slice(&VIEW);
+    let o = run(&args, dir.path());
+    assert_error(
+        &o,
+        &[
+            "odd.instances: species",
+            "the forest was placed for one 1e-300 m tall; re-run texel place",
+        ],
+    );
+    assert!(stderr(&o).len() < 300, "{}", stderr(&o));
+    assert!(!dir.path().join("odd.exr").exists());
+}
+
 /// A hand-made forest that piles trees on one spot (`place` never does) is refused before
 /// anything is built: a ray inside all their boxes at once pays for each (100,000 such trees
 /// took a 64 x 36 render 9 s, a million over a minute). The error names the file, the tree,

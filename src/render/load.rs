@@ -19,6 +19,7 @@ use crate::formats::{container, instances, texel};
 use crate::import::{self, Model};
 use crate::input::MAX_GLTF;
 use crate::limits::Limits;
+use crate::number::shortest;
 use crate::provenance::{self, ProvenanceError};
 use crate::terrain::{self, HeightmapOptions};
 use crate::volume::Texel;
@@ -321,8 +322,11 @@ fn check_heights(
             return Err(LoadError::Mismatch {
                 file: path.to_path_buf(),
                 message: format!(
-                    "species {:?}: the texel's model is {height} tall, the forest was placed for {}",
-                    s.name, s.model_height
+                    "species {:?}: the texel's model is {} m tall, the forest was placed for one \
+                     {} m tall; re-run texel place with this texel",
+                    s.name,
+                    shortest(height),
+                    shortest(s.model_height)
                 ),
             });
         }
