@@ -734,6 +734,16 @@ fn valid_but_empty_files_and_compressed_ones_get_the_right_advice() {
         &tiny_gltf(&tiny, 4, |_| {}),
         &["smaller than", "metres"],
     );
+    // A model its node puts a trillion metres out: its vertices, as 32-bit floats, round to
+    // a grid 119 km wide, and it was called flat.
+    let far = tiny_gltf(&TETRA, 4, |d| {
+        d["nodes"][0]["translation"] = json!([1e12, 0.0, 0.0]);
+    });
+    assert_bake_fails(
+        "far.gltf",
+        &far,
+        &["lies 1.0e12 m from its scene's origin", "nearer the origin"],
+    );
 }
 
 /// A red trunk running up into a closed green crown, as low-poly trees are built: the part

@@ -23,6 +23,7 @@ use regex::Regex;
 use std::path::Path;
 
 use crate::import::{Mesh, Model};
+use crate::number::number;
 use crate::provenance;
 use crate::volume::{
     BakeParameters, DensityModel, ISOTROPIC_LEAVES, Level, Texel, TexelInfo, unit_moment,
@@ -375,6 +376,21 @@ fn fit_grid(mesh: &Mesh, settings: &BakeSettings) -> Result<Grid, BakeError> {
         ));
     }
     let size = extent.max_element();
+    // A model whose nodes put it far from its scene's origin has its vertices rounded, as
+    // 32-bit floats, to a grid that grows with the distance: a metre-sized model at 1e12 m
+    // collapses to a plane or a point, and said only that it was flat or tiny.
+    let reach = lo.abs().max(hi.abs()).max_element();
+    let spacing = reach * f64::from(f32::EPSILON);
+    if spacing > 0.01 * size.max(MIN_MODEL_SIZE) {
+        return Err(BakeError::Model(format!(
+            "the model lies {} m from its scene's origin, where 32-bit floats (which hold its \
+             vertices) are {} m apart, too coarse for a model {} m across; move it (or its \
+             root node) nearer the origin",
+            number(reach, 1),
+            number(spacing, 3),
+            number(size, 3)
+        )));
+    }
     if size < MIN_MODEL_SIZE {
         return Err(BakeError::Model(format!(
             "the model is {size:e} m across, smaller than {MIN_MODEL_SIZE} m; glTF is in metres: \
