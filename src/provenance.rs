@@ -3,6 +3,7 @@
 //! changed since: a forest whose terrain was edited, a texture whose model was re-exported.
 //! This module records sources and reads files verified against their record.
 
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};
@@ -110,32 +111,46 @@ pub fn verify(
 }
 
 /// Every recorded source, found relative to `base`, checked against its record (made when
-/// `since`); the paths read, in order.
+/// `since`); the paths read, in order, each once. A file recorded again with the same digest
+/// (however its path is spelt) is read once: a small forest file could otherwise have a large
+/// terrain hashed once for each of thousands of copies of its record.
 pub fn verify_all(
     records: &[SourceFile],
     base: &Path,
     since: &'static str,
     limit: u64,
 ) -> Result<Vec<PathBuf>, ProvenanceError> {
-    records
-        .iter()
-        .map(|r| {
-            let path = base.join(&r.path);
-            // A file longer than recorded cannot match: read no more than one byte beyond.
-            let bound = limit.min(r.bytes.saturating_add(1));
-            match read_verified(&path, &r.sha256, since, bound) {
-                Err(ProvenanceError::Unreadable(InputError::TooLarge { .. })) => {
-                    Err(ProvenanceError::Changed {
-                        path: path.clone(),
-                        since,
-                        recorded: hex(&r.sha256)[..12].to_string(),
-                        now: format!("more than {} bytes", r.bytes),
-                    })
-                }
-                other => other.map(|_| path),
+    let mut checked = HashSet::new();
+    let mut listed = HashSet::new();
+    let mut paths = Vec::new();
+    for r in records {
+        let path = base.join(&r.path);
+        if !checked.insert((input::file_key(&path), r.sha256, r.bytes)) {
+            if listed.insert(path.clone()) {
+                paths.push(path);
             }
-        })
-        .collect()
+            continue;
+        }
+        // A file longer than recorded cannot match: read no more than one byte beyond.
+        let bound = limit.min(r.bytes.saturating_add(1));
+        match read_verified(&path, &r.sha256, since, bound) {
+            Err(ProvenanceError::Unreadable(InputError::TooLarge { .. })) => {
+                return Err(ProvenanceError::Changed {
+                    path: path.clone(),
+                    since,
+                    recorded: hex(&r.sha256)[..12].to_string(),
+                    now: format!("more than {} bytes", r.bytes),
+                });
+            }
+            Err(e) => return Err(e),
+            Ok(_) => {
+                if listed.insert(path.clone()) {
+                    paths.push(path);
+                }
+            }
+        }
+    }
+    Ok(paths)
 }
 
 /// [`read_verified`]'s verdict without failing: for tools that describe files and only warn.
@@ -150,6 +165,29 @@ pub fn check(path: &Path, recorded: &[u8; 32], since: &'static str, limit: u64) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_source_recorded_many_times_is_listed_once_and_a_wrong_copy_still_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("t.bin"), b"terrain").unwrap();
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let record = |path: &str, content: &[u8]| SourceFile {
+            path: path.into(),
+            sha256: sha256(content),
+            bytes: content.len() as u64,
+        };
+        let mut records = vec![record("t.bin", b"terrain"); 1000];
+        records.push(record("sub/../t.bin", b"terrain"));
+        let since = "the forest was placed";
+        let paths = verify_all(&records, dir.path(), since, 100).unwrap();
+        assert_eq!(
+            paths,
+            [dir.path().join("t.bin"), dir.path().join("sub/../t.bin")]
+        );
+        records.push(record("t.bin", b"another terrain"));
+        let e = verify_all(&records, dir.path(), since, 100).unwrap_err();
+        assert!(e.to_string().contains("changed since"), "{e}");
+    }
 
     #[test]
     fn a_changed_file_is_refused_and_an_unchanged_one_read() {

@@ -422,7 +422,11 @@ fn a_forest_too_far_from_the_origin_for_gltf_floats_is_refused_by_name() {
     let o = run(&["export", "far.instances", "-o", "far.glb"], d);
     assert_error(
         &o,
-        &["far.instances", "origin (1e300, 0, -1e300)", "32-bit floats"],
+        &[
+            "far.instances",
+            "origin (1e300, 0, -1e300)",
+            "32-bit floats",
+        ],
     );
     assert!(!d.join("far.glb").exists());
     // The tables print positions as text, which holds them.
