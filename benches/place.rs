@@ -131,7 +131,7 @@ fn main() {
 /// in four, a large one (`ratio` m): how many discs it makes.
 fn two_radii(ratio: f64) -> usize {
     let propose = |_x: f64, _z: f64, key: u64| {
-        let large = key % 4 == 0;
+        let large = key.is_multiple_of(4);
         Some((if large { ratio } else { 1.0 }, ()))
     };
     poisson::sample(

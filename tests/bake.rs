@@ -742,7 +742,10 @@ fn valid_but_empty_files_and_compressed_ones_get_the_right_advice() {
     assert_bake_fails(
         "far.gltf",
         &far,
-        &["lies 1.0e12 m from its scene's origin", "nearer the origin"],
+        &[
+            "reaches 1.0e12 m from its scene's origin",
+            "nearer the origin",
+        ],
     );
 }
 

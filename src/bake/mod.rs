@@ -383,8 +383,8 @@ fn fit_grid(mesh: &Mesh, settings: &BakeSettings) -> Result<Grid, BakeError> {
     let spacing = reach * f64::from(f32::EPSILON);
     if spacing > 0.01 * size.max(MIN_MODEL_SIZE) {
         return Err(BakeError::Model(format!(
-            "the model lies {} m from its scene's origin, where 32-bit floats (which hold its \
-             vertices) are {} m apart, too coarse for a model {} m across; move it (or its \
+            "the model reaches {} m from its scene's origin, where 32-bit floats (which hold \
+             its vertices) are {} m apart, too coarse for a model {} m across; move it (or its \
              root node) nearer the origin",
             number(reach, 1),
             number(spacing, 3),

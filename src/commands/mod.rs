@@ -15,13 +15,14 @@ use crate::cli::{Cli, Command};
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     if let Some(asked) = cli.threads {
-        let n = usable_threads(asked as usize, std::thread::available_parallelism().ok());
+        let cores = std::thread::available_parallelism().ok();
+        let n = usable_threads(asked as usize, cores);
         if n < asked as usize {
             warn(&format!(
                 "--threads {asked}: this machine runs {} at once; using {n} (the output is the \
                  same for any number, and hundreds of threads on a few cores only wait on \
                  each other)",
-                std::thread::available_parallelism().map_or(1, |c| c.get())
+                cores.map_or(1, |c| c.get())
             ));
         }
         rayon::ThreadPoolBuilder::new()

@@ -121,7 +121,7 @@ pub fn gltf(
     let o = forest.info.origin;
     if !forest.instances.is_empty() && o.iter().any(|v| v.abs() > EYE_LIMIT) {
         return Err(ExportError::Mismatch {
-            file: inputs.dependencies[0].clone(),
+            file: inputs.dependencies.first().cloned().unwrap_or_default(),
             message: format!(
                 "the forest's origin ({}, {}, {}) lies beyond {EYE_LIMIT:e} m, where glTF's \
                  32-bit floats cannot tell its trees apart",
