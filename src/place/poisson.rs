@@ -240,7 +240,8 @@ fn sample_band<T>(
         }
         // Nothing active: look for the next empty cell that can take a sample. Where the cell's
         // centre lies in no disc, a few darts in the cell look for room.
-        let (cell, nx, nz) = (band.grid.cell, band.grid.nx, band.grid.nz);
+        let finest = &band.grid.classes[0];
+        let (cell, nx, nz) = (finest.cell, finest.nx, finest.nz);
         let mut seeded = false;
         while scan < nx * nz && !seeded {
             let (ci, cj) = (scan % nx, scan / nx);
@@ -296,11 +297,7 @@ struct DiscGrid {
     z0: f64,
     x1: f64,
     z1: f64,
-    r_min: f64,
-    /// The finest class's cell and the region in those cells: the gap-filling scan's cells.
-    cell: f64,
-    nx: usize,
-    nz: usize,
+    /// The finest first: its cells are the gap-filling scan's.
     classes: Vec<ClassGrid>,
 }
 
@@ -358,7 +355,11 @@ impl ClassGrid {
     /// The cell of a point (relative to the region's corner) in the region or within a
     /// cell of it, whose neighbourhood the border still holds.
     fn cell_of(&self, x: f64, z: f64) -> usize {
-        let (i, j) = ((x / self.cell) as usize, (z / self.cell) as usize);
+        self.index((x / self.cell) as usize, (z / self.cell) as usize)
+    }
+
+    /// Cell (i, j) of the region as one index into `cells`.
+    fn index(&self, i: usize, j: usize) -> usize {
         (i + self.pad) + (j + self.pad) * self.stride
     }
 
@@ -391,29 +392,22 @@ impl DiscGrid {
             }
             low *= 2.0;
         }
-        let finest = &classes[0];
         DiscGrid {
             x0,
             z0,
             x1,
             z1,
-            r_min,
-            cell: finest.cell,
-            nx: finest.nx,
-            nz: finest.nz,
             classes,
         }
     }
 
     /// The class of a disc of radius `r`.
     fn class_of(&self, r: f64) -> usize {
-        let mut k = 0;
-        let mut low = 2.0 * self.r_min;
-        while k + 1 < self.classes.len() && r >= low {
-            k += 1;
-            low *= 2.0;
-        }
-        k
+        let last = self.classes.len() - 1;
+        self.classes[..last]
+            .iter()
+            .position(|g| r < g.r_top)
+            .unwrap_or(last)
     }
 
     fn inside(&self, x: f64, z: f64) -> bool {
@@ -469,8 +463,7 @@ impl DiscGrid {
 
     /// The finest class's cell (i, j) as one number, which keys the scan's darts there.
     fn scan_key(&self, i: usize, j: usize) -> usize {
-        let grid = &self.classes[0];
-        (i + grid.pad) + (j + grid.pad) * grid.stride
+        self.classes[0].index(i, j)
     }
 }
 
