@@ -955,3 +955,37 @@ fn a_closed_standard_error_keeps_the_exit_status() {
     assert_eq!(status.code(), Some(1));
     assert!(!dir.path().join("x.texel").exists());
 }
+
+/// The occupancy model votes over every fine cell of the three axes' scans, three bytes a
+/// fine cell: `--fine 4096` on the conifer's grid would have taken 23 GiB, and at 2048 7 GiB
+/// ran a 6 GiB process out of memory (an abort, not an error). The bake refuses such a grid
+/// before scanning, naming the file, the flags and the memory, and writes nothing.
+#[test]
+fn an_occupancy_bake_too_fine_for_memory_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(fixture("trees/conifer.glb"), dir.path().join("conifer.glb")).unwrap();
+    let o = run(
+        &[
+            "bake",
+            "conifer.glb",
+            "-o",
+            "c.texel",
+            "--density",
+            "occupancy",
+            "--fine",
+            "2048",
+        ],
+        dir.path(),
+    );
+    assert_error(
+        &o,
+        &[
+            "conifer.glb",
+            "--density occupancy",
+            "--fine 2048",
+            "1152 x 2048 x 1088",
+            "7.2 GiB",
+        ],
+    );
+    assert!(!dir.path().join("c.texel").exists());
+}

@@ -131,6 +131,9 @@ fn pattern(flag: &str, text: &str) -> Result<Regex, BakeError> {
 /// Largest texture and fine resolutions accepted: 256^3 cells is 700 MiB of voxels already.
 pub const MAX_RESOLUTION: usize = 256;
 pub const MAX_FINE: usize = 4096;
+/// Most fine cells the occupancy model bakes: its vote keeps three bytes a fine cell (one
+/// per axis's scan), 3 GiB here, where `--fine 4096` on a cubic grid would take 200 GB.
+const MAX_OCCUPANCY_FINE_CELLS: usize = 1 << 30;
 /// Smallest model accepted, metres: below it, extinctions of opaque cells overflow `f32`
 /// (and no tree is a tenth of a millimetre tall).
 const MIN_MODEL_SIZE: f64 = 1e-4;
@@ -199,6 +202,17 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     let model = ScanModel::new(mesh, grid, is_foliage, is_closed);
 
     let occupancy = settings.density == DensityModel::Occupancy;
+    let fine_cells: usize = grid.fine_dims().iter().product();
+    if occupancy && fine_cells > MAX_OCCUPANCY_FINE_CELLS {
+        let [x, y, z] = grid.fine_dims();
+        return Err(BakeError::Settings(format!(
+            "--density occupancy keeps 3 bytes a fine cell, and --fine {} makes this model's \
+             grid {x} x {y} x {z} fine cells ({:.1} GiB), over the 2^30 (3 GiB) it may \
+             take: lower --fine, or bake by transmittance, which keeps none",
+            settings.fine,
+            3.0 * fine_cells as f64 / f64::from(1u32 << 30),
+        )));
+    }
     let scans = scan_all(&model, occupancy)?;
     let rays = (grid.k * grid.k) as f64;
     let mesh_coverage: [f64; 3] = std::array::from_fn(|a| {
@@ -230,7 +244,6 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
         mip_chain(level, extinction_scale)
     };
     let mut levels = with_density(level.clone(), density);
-    let fine_cells: usize = grid.fine_dims().iter().product();
     if thick.iter().any(|&t| t) && fine_cells <= solid::MAX_FINE_CELLS {
         // The thick closed parts as solids, the rest as density (`bake::solid`).
         let thin: Vec<bool> = thick.iter().map(|t| !t).collect();
