@@ -459,11 +459,12 @@ impl Level {
     pub fn foliage_leaves(&self, c: Vec3) -> Option<(f32, [f32; 6])> {
         let (idx, w) = self.trilinear(c)?;
         // By the trilinear weights alone, empty cells' placeholders included, unlike the
-        // wood's: weighted by density too, the lone broadleaf lit 60 degrees from the eye
-        // went from 0.96 to 1.03 of its mesh's green at level 0 and 1.05 to 1.09 at level 2,
-        // the conifer from 0.97 to 1.01 with less coverage than its mesh (0.95), and the
-        // fixture views did not move: the leaves' fits were made around this mixture, and
-        // changing it is a joint refit (README, *Wood normals*).
+        // wood's. Weighted by density too, the lone trees' leaves came out brighter, most
+        // farther from their meshes (the broadleaf lit 60 degrees from the eye: 0.96 to 1.03
+        // of its mesh's green at level 0, 1.05 to 1.09 at level 2; the conifer 0.97 to 1.01
+        // with 0.95 of its mesh's coverage), and the fixture views did not move: something
+        // else in the leaves' light is too bright, and the placeholders' dilution under a
+        // high sun hides it (README, *The wood's normals mixed by the wood each cell holds*).
         moment_at(&self.leaves, &idx, &w, self.weighted_density(1, &idx, &w))
     }
 
