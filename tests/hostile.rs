@@ -957,9 +957,10 @@ fn a_closed_standard_error_keeps_the_exit_status() {
 }
 
 /// The occupancy model votes over every fine cell of the three axes' scans, three bytes a
-/// fine cell: `--fine 4096` on the conifer's grid would have taken 23 GiB, and at 2048 7 GiB
-/// ran a 6 GiB process out of memory (an abort, not an error). The bake refuses such a grid
-/// before scanning, naming the file, the flags and the memory, and writes nothing.
+/// fine cell: `--fine 4096` on the conifer's grid would take 57 GiB, and at 2048 (7.2 GiB) a
+/// process held to 6 GiB aborted on an allocation failure, an abort where an error was due.
+/// The bake refuses such a grid before scanning, naming the file, the flags and the memory,
+/// and writes nothing.
 #[test]
 fn an_occupancy_bake_too_fine_for_memory_is_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
