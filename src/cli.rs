@@ -667,7 +667,8 @@ pub struct BakeArgs {
           value_parser = clap::builder::RangedU64ValueParser::<usize>::new()
               .range(1..=texel_forest::bake::MAX_RESOLUTION as u64))]
     pub resolution: usize,
-    /// Fine scan cells along the longest side (a multiple of --resolution, at most 4096).
+    /// Fine scan cells along the longest side (a multiple of --resolution, at most 4096; the
+    /// occupancy model keeps 3 bytes a fine cell and takes at most 2^30 of them).
     #[arg(long, default_value_t = 256, value_name = "CELLS",
           value_parser = clap::builder::RangedU64ValueParser::<usize>::new()
               .range(1..=texel_forest::bake::MAX_FINE as u64))]
