@@ -462,9 +462,10 @@ impl Level {
         // wood's. Weighted by density too, the lone trees' leaves came out brighter, most
         // farther from their meshes (the broadleaf lit 60 degrees from the eye: 0.96 to 1.03
         // of its mesh's green at level 0, 1.05 to 1.09 at level 2; the conifer 0.97 to 1.01
-        // with 0.95 of its mesh's coverage), and the fixture views did not move: something
-        // else in the leaves' light is too bright, and the placeholders' dilution under a
-        // high sun hides it (README, *The wood's normals mixed by the wood each cell holds*).
+        // with 0.95 of its mesh's coverage), and the fixture views did not move: under a high
+        // sun the leaves' self-shadowing factor, fitted over suns of every height, lets the
+        // sun reach too many of them, and the placeholders' dilution hid it (README, *The
+        // wood's normals mixed by the wood each cell holds*).
         moment_at(&self.leaves, &idx, &w, self.weighted_density(1, &idx, &w))
     }
 
