@@ -466,7 +466,8 @@ impl Level {
         // sun the leaves' self-shadowing factor, fitted over suns of every height, lets the
         // sun reach too many of them, and the placeholders' dilution hid it (README, *The
         // wood's normals mixed by the wood each cell holds*).
-        moment_at(&self.leaves, &idx, &w, self.weighted_density(1, &idx, &w))
+        let d = self.weighted_density(1, &idx, &w);
+        (d > 0.0).then(|| (d, mixed(&self.leaves, &idx, &w)))
     }
 
     /// The wood's density at `c` and, where it has some and the level has wood moments, its
@@ -487,31 +488,22 @@ impl Level {
         if d <= 0.0 {
             return None;
         }
-        let density = &self.density[0];
-        let weights = std::array::from_fn(|k| w[k] * density[idx[k]] / d);
-        moment_at(&self.wood_normals, &idx, &weights, d)
+        let (density, per_density) = (&self.density[0], 1.0 / d);
+        let weights = std::array::from_fn(|k| w[k] * density[idx[k]] * per_density);
+        Some((d, mixed(&self.wood_normals, &idx, &weights)))
     }
 }
 
-/// The moment `moments` hold at the trilinear cells `idx` with `weights`, beside the part's
-/// density there `d`; `None` where the part has none.
+/// The moments of the trilinear cells `idx` summed with `weights`.
 #[inline]
-fn moment_at(
-    moments: &[[f32; 6]],
-    idx: &[usize; 8],
-    weights: &[f32; 8],
-    d: f32,
-) -> Option<(f32, [f32; 6])> {
-    if d <= 0.0 {
-        return None;
-    }
+fn mixed(moments: &[[f32; 6]], idx: &[usize; 8], weights: &[f32; 8]) -> [f32; 6] {
     let mut sum = [0.0f32; 6];
     for k in 0..8 {
         for (sum, m) in sum.iter_mut().zip(&moments[idx[k]]) {
             *sum += m * weights[k];
         }
     }
-    Some((d, sum))
+    sum
 }
 
 /// Per cell `i` of a level, whether the trilinear stencil whose lowest corner is `i` (the
