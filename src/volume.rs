@@ -34,8 +34,57 @@ impl DensityModel {
 /// its self-shadowing factors (`formats/texel.md`, *Self-shadowing*).
 pub const SELF_SHADOW_ANGLES: [f32; 6] = [0.0, 15.0, 30.0, 60.0, 90.0, 180.0];
 
-/// Self-shadowing of independent media: every factor 1.
-pub const NO_SELF_SHADOW: [f32; 6] = [1.0; 6];
+/// Heights of the sun (degrees above the model's horizontal plane) at which a level stores
+/// its self-shadowing factors since texel 1.5 (`formats/texel.md`, *Self-shadowing*).
+pub const SUN_HEIGHTS: [f32; 4] = [0.0, 30.0, 60.0, 90.0];
+
+/// A level's self-shadowing factors: the multiplier on the tree's own extinction along a
+/// foliage sample's shadow ray, per angle of [`SELF_SHADOW_ANGLES`] between the directions to
+/// the eye and to the sun, and per height of the sun.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SelfShadow {
+    /// Fitted to suns of every height alike: the only row of texel 1.2 to 1.4, which readers
+    /// of those versions use.
+    pub pooled: [f32; 6],
+    /// One row per height of [`SUN_HEIGHTS`] (texel 1.5): how much a tree shadows what the
+    /// eye sees of it depends on how high the sun stands, not only on the angle.
+    pub by_height: [[f32; 6]; SUN_HEIGHTS.len()],
+}
+
+impl SelfShadow {
+    /// Independent media: every factor 1.
+    pub const NONE: SelfShadow = SelfShadow::uniform([1.0; 6]);
+
+    /// One row for suns of every height (files before texel 1.5).
+    pub const fn uniform(row: [f32; 6]) -> SelfShadow {
+        SelfShadow {
+            pooled: row,
+            by_height: [row; SUN_HEIGHTS.len()],
+        }
+    }
+
+    /// The factor for an angle of `cos_g` (its cosine) between the directions to the eye and
+    /// to the sun, with the sun at `sun_height` (degrees above the horizontal; clamped to 0 to
+    /// 90): linear in the angle and in the height between the stored ones.
+    pub fn at(&self, cos_g: f32, sun_height: f32) -> f32 {
+        let g = cos_g.clamp(-1.0, 1.0).acos().to_degrees();
+        let (i, u) = bracket(&SELF_SHADOW_ANGLES, g);
+        let (j, w) = bracket(&SUN_HEIGHTS, sun_height);
+        let row = |r: &[f32; 6]| r[i] * (1.0 - u) + r[i + 1] * u;
+        row(&self.by_height[j]) * (1.0 - w) + row(&self.by_height[j + 1]) * w
+    }
+}
+
+/// Where `x` falls among the increasing `nodes`: the index of the interval's lower end and
+/// the fraction of the way along it, clamped to the ends.
+fn bracket(nodes: &[f32], x: f32) -> (usize, f32) {
+    let i = nodes[1..]
+        .iter()
+        .position(|&n| x <= n)
+        .unwrap_or(nodes.len() - 2);
+    let u = ((x - nodes[i]) / (nodes[i + 1] - nodes[i])).clamp(0.0, 1.0);
+    (i, if u.is_nan() { 0.0 } else { u })
+}
 
 /// The leaf-normal moment of leaves facing every way alike: `E[n n^T] = I / 3`.
 pub const ISOTROPIC_LEAVES: [f32; 6] = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.0, 0.0, 0.0];
@@ -99,10 +148,9 @@ pub struct Level {
     /// direction `w` extinction is the stored one times `sqrt(q(w))`, `q(w) = w^T S w + c (w_x^4
     /// + w_y^4 + w_z^4)` (see `bake::calibrate`; [`ISOTROPIC`] in files before texel 1.2).
     pub directional: [f32; 7],
-    /// Self-shadowing: the factor on the tree's own extinction along a foliage sample's shadow
-    /// ray, at each angle of [`SELF_SHADOW_ANGLES`] between the eye's and the sun's directions
-    /// (see `bake::self_shadow`; [`NO_SELF_SHADOW`] in files before texel 1.2).
-    pub self_shadow: [f32; 6],
+    /// Self-shadowing (see `bake::seen`; [`SelfShadow::NONE`] in files before texel 1.2, one
+    /// row for every sun height before 1.5).
+    pub self_shadow: SelfShadow,
     /// The weight on the wood's extinction in choosing which part of a sample scatters: the
     /// wood shows as much as in the mesh, not wherever a coarse cell mixes it with foliage
     /// (see `bake::seen`; 1 in files before texel 1.2).
@@ -202,7 +250,7 @@ impl Level {
             leaves: vec![ISOTROPIC_LEAVES; n],
             wood_normals: Vec::new(),
             directional: ISOTROPIC,
-            self_shadow: NO_SELF_SHADOW,
+            self_shadow: SelfShadow::NONE,
             wood_weight: 1.0,
             solid: [Vec::new(), Vec::new()],
         }
@@ -315,16 +363,6 @@ impl Level {
             }
         }
         g
-    }
-
-    /// The self-shadowing factor for an angle of `cos_g` (its cosine) between the directions to
-    /// the eye and to the sun: linear in the angle between the stored ones.
-    pub fn self_shadow_at(&self, cos_g: f32) -> f32 {
-        let g = cos_g.clamp(-1.0, 1.0).acos().to_degrees();
-        let a = &SELF_SHADOW_ANGLES;
-        let i = a[1..].iter().position(|&x| g <= x).unwrap_or(a.len() - 2);
-        let u = ((g - a[i]) / (a[i + 1] - a[i])).clamp(0.0, 1.0);
-        self.self_shadow[i] * (1.0 - u) + self.self_shadow[i + 1] * u
     }
 
     /// The factor extinction takes along direction `d` (model space, any non-zero length):
@@ -453,21 +491,18 @@ impl Level {
         f
     }
 
-    /// The foliage's density at `c` and, where it has some, its leaf-normal moment, from one
-    /// set of trilinear weights (the same sums as [`Level::fetch`]'s density).
+    /// The foliage's density at `c` and, where it has some, its leaf-normal moment: the mean
+    /// of its cells' moments weighted by the foliage each holds there (trilinear weight times
+    /// density), as the wood's are ([`Level::wood_normals_at`]): an empty cell's placeholder
+    /// stands for no leaf. Weighted by the trilinear weights alone, the placeholders' sphere of
+    /// normals darkened the lone trees' unshadowed leaves (the conifer lit 60 degrees from the
+    /// eye, from above: 0.87 of its mesh's light, 0.93 so weighted) and hid that their own
+    /// shadow let too much sun through under a high sun, until the self-shadowing factors
+    /// were fitted per height of the sun (texel 1.5; README, *The leaves' self-shadowing by
+    /// the sun's height*).
     #[inline]
     pub fn foliage_leaves(&self, c: Vec3) -> Option<(f32, [f32; 6])> {
-        let (idx, w) = self.trilinear(c)?;
-        // By the trilinear weights alone, empty cells' placeholders included, unlike the
-        // wood's. Weighted by density too, the lone trees' leaves came out brighter, most
-        // farther from their meshes (the broadleaf lit 60 degrees from the eye: 0.96 to 1.03
-        // of its mesh's green at level 0, 1.05 to 1.09 at level 2; the conifer 0.97 to 1.01
-        // with 0.95 of its mesh's coverage), and the fixture views did not move: under a high
-        // sun the leaves' self-shadowing factor, fitted over suns of every height, lets the
-        // sun reach too many of them, and the placeholders' dilution hid it (README, *The
-        // wood's normals mixed by the wood each cell holds*).
-        let d = self.weighted_density(1, &idx, &w);
-        (d > 0.0).then(|| (d, mixed(&self.leaves, &idx, &w)))
+        self.moment_by_density(1, &self.leaves, c)
     }
 
     /// The wood's density at `c` and, where it has some and the level has wood moments, its
@@ -483,14 +518,26 @@ impl Level {
         if self.wood_normals.is_empty() {
             return None;
         }
+        self.moment_by_density(0, &self.wood_normals, c)
+    }
+
+    /// Part `part`'s density at `c` and, where it has some, the mean of its cells' `moments`
+    /// weighted by the part's density each holds there (trilinear weight times density).
+    #[inline]
+    fn moment_by_density(
+        &self,
+        part: usize,
+        moments: &[[f32; 6]],
+        c: Vec3,
+    ) -> Option<(f32, [f32; 6])> {
         let (idx, w) = self.trilinear(c)?;
-        let d = self.weighted_density(0, &idx, &w);
+        let d = self.weighted_density(part, &idx, &w);
         if d <= 0.0 {
             return None;
         }
-        let (density, per_density) = (&self.density[0], 1.0 / d);
+        let (density, per_density) = (&self.density[part], 1.0 / d);
         let weights = std::array::from_fn(|k| w[k] * density[idx[k]] * per_density);
-        Some((d, mixed(&self.wood_normals, &idx, &weights)))
+        Some((d, mixed(moments, &idx, &weights)))
     }
 }
 
@@ -957,6 +1004,32 @@ impl Texel {
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    /// A factor is linear in the angle between eye and sun and in the sun's height between
+    /// the stored ones, the height clamped to 0 to 90 degrees; one row serves every height in
+    /// files before texel 1.5.
+    #[test]
+    fn self_shadowing_interpolates_in_the_angle_and_the_suns_height() {
+        let row = |h: f32| [0.0, 1.0 + h, 2.0 + h, 4.0 + h, 8.0 + h, 8.0 + h];
+        let s = SelfShadow {
+            pooled: row(0.0),
+            by_height: [row(0.0), row(3.0), row(6.0), row(9.0)],
+        };
+        let cos = |degrees: f32| degrees.to_radians().cos();
+        let near = |a: f32, b: f32| (a - b).abs() < 1e-4;
+        assert!(near(s.at(1.0, 0.0), 0.0));
+        assert!(near(s.at(cos(15.0), 0.0), 1.0));
+        // Halfway between the rows for 30 and 60 degrees: 4 and 7.
+        assert!(near(s.at(cos(15.0), 45.0), 5.5));
+        // Halfway between 30 and 60 degrees from the eye, overhead: 11 and 13.
+        assert!(near(s.at(cos(45.0), 90.0), 12.0));
+        assert!(near(s.at(cos(15.0), -20.0), s.at(cos(15.0), 0.0)));
+        assert!(near(s.at(cos(15.0), 120.0), s.at(cos(15.0), 90.0)));
+        let one = SelfShadow::uniform(row(0.0));
+        for h in [0.0, 17.0, 45.0, 90.0] {
+            assert!(near(one.at(cos(45.0), h), 3.0));
+        }
+    }
 
     /// A branch one cell wide among empty cells is read with its own normals wherever its
     /// density reaches: the empty neighbours' placeholders weigh nothing, so between the

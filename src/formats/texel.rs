@@ -11,13 +11,14 @@ use crate::limits::{LimitError, Limits};
 use crate::number::shortest;
 use crate::provenance::SourceFile;
 use crate::volume::{
-    BakeParameters, DensityModel, Level, MaterialPart, PartReason, Texel, TexelInfo,
+    BakeParameters, DensityModel, Level, MaterialPart, PartReason, SUN_HEIGHTS, SelfShadow, Texel,
+    TexelInfo,
 };
 
 pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";
 pub const MAJOR: u16 = 1;
 /// Minor version 1 appends the wood pattern and the material table to the header.
-pub const MINOR: u16 = 4;
+pub const MINOR: u16 = 5;
 
 /// Limits a reader enforces before it allocates anything a header asks for.
 const MAX_LEVELS: usize = 16;
@@ -108,6 +109,15 @@ pub(crate) struct HeaderV1_2 {
     /// Per level, finest first: the weight on the wood's extinction in choosing which part
     /// scatters.
     pub(crate) wood_weight: Vec<f32>,
+}
+
+/// What minor version 5 appends to the header.
+#[derive(Clone, Debug, PartialEq, Encode, Decode, Default)]
+pub(crate) struct HeaderV1_5 {
+    /// Per level, finest first: the self-shadowing factors at the angles of
+    /// [`crate::volume::SELF_SHADOW_ANGLES`], one row per sun height of
+    /// [`crate::volume::SUN_HEIGHTS`].
+    pub(crate) self_shadow_by_height: Vec<[[f32; 6]; SUN_HEIGHTS.len()]>,
 }
 
 /// Bounds of a wood weight (the bake's fit stays within 1/64 to 64).
@@ -284,7 +294,13 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
         )));
     }
     let parts = parts(texel);
-    validate(&parts.header, &parts.extension, Some(&parts.extension2)).map_err(unwritable)?;
+    validate(
+        &parts.header,
+        &parts.extension,
+        Some(&parts.extension2),
+        parts.extension5.as_ref(),
+    )
+    .map_err(unwritable)?;
     for level in &texel.levels {
         check_values(level).map_err(unwritable)?;
     }
@@ -296,8 +312,11 @@ pub(crate) struct Parts {
     pub(crate) header: Header,
     pub(crate) extension: HeaderV1_1,
     pub(crate) extension2: HeaderV1_2,
+    /// Where some level's self-shadowing depends on the sun's height.
+    pub(crate) extension5: Option<HeaderV1_5>,
     pub(crate) payload: Vec<u8>,
-    /// 4 where the payload holds the wood's normals, else 3 where it holds solids, else 2.
+    /// 5 where the header holds self-shadowing by sun height, else 4 where the payload holds
+    /// the wood's normals, else 3 where it holds solids, else 2.
     pub(crate) minor: u16,
 }
 
@@ -346,7 +365,7 @@ fn parts(texel: &Texel) -> Parts {
     };
     let extension2 = HeaderV1_2 {
         directional: texel.levels.iter().map(|l| l.directional).collect(),
-        self_shadow: texel.levels.iter().map(|l| l.self_shadow).collect(),
+        self_shadow: texel.levels.iter().map(|l| l.self_shadow.pooled).collect(),
         wood_weight: texel.levels.iter().map(|l| l.wood_weight).collect(),
     };
     let mut payload = Vec::new();
@@ -390,18 +409,34 @@ fn parts(texel: &Texel) -> Parts {
             );
         }
     }
+    // A texture whose self-shadowing is one row for every sun height is the file it was
+    // before 1.5, byte for byte.
+    let extension5 = texel
+        .levels
+        .iter()
+        .any(|l| l.self_shadow != SelfShadow::uniform(l.self_shadow.pooled))
+        .then(|| HeaderV1_5 {
+            self_shadow_by_height: texel
+                .levels
+                .iter()
+                .map(|l| l.self_shadow.by_height)
+                .collect(),
+        });
     Parts {
         header,
         extension,
         extension2,
-        payload,
-        minor: if has_wood_normals(texel) {
+        minor: if extension5.is_some() {
+            5
+        } else if has_wood_normals(texel) {
             4
         } else if has_solids(texel) {
             3
         } else {
             2
         },
+        extension5,
+        payload,
     }
 }
 
@@ -411,6 +446,9 @@ fn assemble(parts: &Parts) -> Result<Vec<u8>, ContainerError> {
     let mut header = bincode::encode_to_vec(&parts.header, header_config()).map_err(too_large)?;
     header.extend(bincode::encode_to_vec(&parts.extension, header_config()).map_err(too_large)?);
     header.extend(bincode::encode_to_vec(&parts.extension2, header_config()).map_err(too_large)?);
+    if let Some(e) = &parts.extension5 {
+        header.extend(bincode::encode_to_vec(e, header_config()).map_err(too_large)?);
+    }
     container::write(MAGIC, MAJOR, parts.minor, &header, &parts.payload)
 }
 
@@ -478,28 +516,46 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
     } else {
         None
     };
+    let extension5 = if minor >= 5 {
+        let (extension5, used): (HeaderV1_5, usize) =
+            bincode::decode_from_slice(rest, header_config()).map_err(decode_error)?;
+        rest = &rest[used..];
+        Some(extension5)
+    } else {
+        None
+    };
     if !rest.is_empty() && minor <= MINOR {
         return Err(TexelError::Header(format!(
             "{} bytes after the header",
             rest.len()
         )));
     }
-    validate(&header, &extension, extension2.as_ref())?;
+    validate(
+        &header,
+        &extension,
+        extension2.as_ref(),
+        extension5.as_ref(),
+    )?;
     // Files before 1.2 are isotropic and shadow themselves as independent media: every
-    // factor 1.
+    // factor 1. Files before 1.5 have one self-shadowing row for every sun height.
     let n = header.levels.len();
-    let fits = extension2.map_or_else(
+    let mut fits = extension2.map_or_else(
         || LevelFits {
             directional: vec![crate::volume::ISOTROPIC; n],
-            self_shadow: vec![crate::volume::NO_SELF_SHADOW; n],
+            self_shadow: vec![SelfShadow::NONE; n],
             wood_weight: vec![1.0; n],
         },
         |e| LevelFits {
             directional: e.directional,
-            self_shadow: e.self_shadow,
+            self_shadow: e.self_shadow.into_iter().map(SelfShadow::uniform).collect(),
             wood_weight: e.wood_weight,
         },
     );
+    if let Some(e) = extension5 {
+        for (s, rows) in fits.self_shadow.iter_mut().zip(e.self_shadow_by_height) {
+            s.by_height = rows;
+        }
+    }
     Ok(Decoded {
         header,
         extension,
@@ -514,10 +570,10 @@ struct Decoded {
     fits: LevelFits,
 }
 
-/// The per-level fields of 1.2 (neutral values for older files).
+/// The per-level fields of 1.2 and 1.5 (neutral values for older files).
 struct LevelFits {
     directional: Vec<[f32; 7]>,
-    self_shadow: Vec<[f32; 6]>,
+    self_shadow: Vec<SelfShadow>,
     wood_weight: Vec<f32>,
 }
 
@@ -828,12 +884,37 @@ fn validate(
     h: &Header,
     extension: &HeaderV1_1,
     extension2: Option<&HeaderV1_2>,
+    extension5: Option<&HeaderV1_5>,
 ) -> Result<(), TexelError> {
     validate_geometry(h)?;
     validate_channels(h)?;
     validate_materials(h, extension)?;
     if let Some(e) = extension2 {
         validate_directional(h, e)?;
+    }
+    if let Some(e) = extension5 {
+        validate_self_shadow_by_height(h, e)?;
+    }
+    Ok(())
+}
+
+/// The 1.5 rows: one set per level, every factor within 0 to 64.
+fn validate_self_shadow_by_height(h: &Header, e: &HeaderV1_5) -> Result<(), TexelError> {
+    if e.self_shadow_by_height.len() != h.levels.len() {
+        return bad(format!(
+            "{} sets of self-shadowing rows by sun height for {} levels",
+            e.self_shadow_by_height.len(),
+            h.levels.len()
+        ));
+    }
+    for (i, rows) in e.self_shadow_by_height.iter().enumerate() {
+        for (row, height) in rows.iter().zip(SUN_HEIGHTS) {
+            if !row.iter().all(|v| (0.0..=SELF_SHADOW_MAX).contains(v)) {
+                return bad(format!(
+                    "level {i}'s self-shadowing factors for a sun {height} degrees high {row:?} have one that is not a number within 0 to 64"
+                ));
+            }
+        }
     }
     Ok(())
 }
@@ -1269,9 +1350,73 @@ pub(crate) mod tests {
         assert!(e.contains("payload"), "{e}");
     }
 
+    /// `t` with self-shadowing rows that differ by the sun's height, as every bake of a tree
+    /// with foliage has since 1.5.
+    fn with_heights(mut t: Texel) -> Texel {
+        for (n, l) in t.levels.iter_mut().enumerate() {
+            let row = |h: usize| std::array::from_fn(|a| (a * (h + 1) + n) as f32 * 0.25);
+            l.self_shadow = SelfShadow {
+                pooled: row(1),
+                by_height: std::array::from_fn(row),
+            };
+        }
+        t
+    }
+
+    /// Rows by sun height make a 1.5 file, read back bit for bit; the pooled row stays where
+    /// 1.2 put it, so a 1.4 reader (which skips the appended field) reads it alone; rows out of
+    /// range are refused, naming the level and the sun's height. A texture whose rows are all
+    /// its pooled one is the file it was before.
+    #[test]
+    fn self_shadowing_by_sun_height_is_written_as_1_5_and_read_back() {
+        let t = with_heights(sample_texel(3));
+        let bytes = encode(&t).unwrap();
+        let opened = container::open(&bytes, MAGIC, "texel", MAJOR).unwrap();
+        assert_eq!(opened.minor, 5);
+        assert_eq!(decode(&bytes).unwrap(), t);
+        // As a 1.4 reader reads it: the same header, minor 4, the appended field left out.
+        let p = container::preamble(&bytes).unwrap();
+        let appended = 8 + 4 * 6 * 4 * t.levels.len();
+        let h = container::PREAMBLE + p.header_len as usize;
+        let mut b = bytes[..h - appended].to_vec();
+        b[10..12].copy_from_slice(&4u16.to_le_bytes());
+        b[12..16].copy_from_slice(&(p.header_len - appended as u32).to_le_bytes());
+        b.extend_from_slice(&bytes[h..]);
+        let old = decode(&recrc(b)).unwrap();
+        for (l, o) in t.levels.iter().zip(&old.levels) {
+            assert_eq!(o.self_shadow, SelfShadow::uniform(l.self_shadow.pooled));
+        }
+        let bad = forge(&t, |p| {
+            if let Some(e) = &mut p.extension5 {
+                e.self_shadow_by_height[1][2][3] = 65.0;
+            }
+        });
+        let e = decode(&bad).unwrap_err().to_string();
+        assert!(
+            e.contains("level 1") && e.contains("60 degrees high"),
+            "{e}"
+        );
+        let short = forge(&t, |p| {
+            if let Some(e) = &mut p.extension5 {
+                e.self_shadow_by_height.pop();
+            }
+        });
+        let e = decode(&short).unwrap_err().to_string();
+        assert!(e.contains("by sun height"), "{e}");
+        let plain = sample_texel(3);
+        let opened_plain = encode(&plain).unwrap();
+        assert_eq!(
+            container::open(&opened_plain, MAGIC, "texel", MAJOR)
+                .unwrap()
+                .minor,
+            2
+        );
+    }
+
     #[test]
     fn minor_versions_append_header_fields_that_older_readers_skip() {
-        let t = sample_texel(3);
+        // A file of the newest minor version, whose every header field is present.
+        let t = with_heights(sample_texel(3));
         let bytes = encode(&t).unwrap();
         let p = container::preamble(&bytes).unwrap();
         // The same file with four more header bytes, as a newer minor version would append.
@@ -1319,7 +1464,7 @@ pub(crate) mod tests {
     fn isotropic(mut t: Texel) -> Texel {
         for l in &mut t.levels {
             l.directional = crate::volume::ISOTROPIC;
-            l.self_shadow = crate::volume::NO_SELF_SHADOW;
+            l.self_shadow = SelfShadow::NONE;
             l.wood_weight = 1.0;
         }
         t

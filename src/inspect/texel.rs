@@ -58,8 +58,11 @@ pub struct LevelSummary {
     pub factor_axes: [f32; 3],
     pub factor_range: [f32; 2],
     /// The factors on the tree's own extinction along a foliage sample's shadow ray, at the
-    /// angles of [`crate::volume::SELF_SHADOW_ANGLES`] between eye and sun.
+    /// angles of [`crate::volume::SELF_SHADOW_ANGLES`] between eye and sun: pooled over suns
+    /// of every height (what readers before texel 1.5 use), and one row per sun height of
+    /// [`crate::volume::SUN_HEIGHTS`] (all the pooled row in files before 1.5).
     pub self_shadow: [f32; 6],
+    pub self_shadow_by_sun_height: [[f32; 6]; crate::volume::SUN_HEIGHTS.len()],
     /// The weight on the wood's extinction in choosing which part scatters.
     pub wood_weight: f32,
     /// Where the level draws solids (texel 1.3): the share of its cells whose centre is
@@ -167,7 +170,8 @@ fn level_summary(l: &Level) -> LevelSummary {
         dims: l.dims,
         cell: l.cell,
         directional: l.directional,
-        self_shadow: l.self_shadow,
+        self_shadow: l.self_shadow.pooled,
+        self_shadow_by_sun_height: l.self_shadow.by_height,
         wood_weight: l.wood_weight,
         factor_axes: [Vec3::X, Vec3::Y, Vec3::Z].map(|w| l.directional_factor(w)),
         solid: l.has_solid().then(|| {
@@ -304,18 +308,31 @@ fn write_grid(o: &mut String, s: &Summary) {
         "self-shadow   own-extinction factor of a leaf's shadow ray at {} degrees from the eye, per level:",
         angles.join("/")
     );
-    for (n, l) in s.levels.iter().enumerate() {
-        let row: Vec<String> = l
-            .self_shadow
-            .iter()
+    let row = |r: &[f32; 6]| {
+        r.iter()
             .map(|&k| number(k, 2).to_string())
-            .collect();
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    for (n, l) in s.levels.iter().enumerate() {
         let _ = writeln!(
             o,
             "              level {n}: {}   (wood shown x {})",
-            row.join(" "),
+            row(&l.self_shadow),
             number(l.wood_weight, 2)
         );
+        if l.self_shadow_by_sun_height
+            .iter()
+            .any(|r| *r != l.self_shadow)
+        {
+            for (r, h) in l
+                .self_shadow_by_sun_height
+                .iter()
+                .zip(crate::volume::SUN_HEIGHTS)
+            {
+                let _ = writeln!(o, "                sun {h:>2} degrees high: {}", row(r));
+            }
+        }
     }
     let f = |v: [f64; 3]| {
         let [x, y, z] = v.map(|c| number(c, 3));

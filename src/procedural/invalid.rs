@@ -7,7 +7,7 @@ use crate::bake::{mip_chain, sobel};
 use crate::formats::container::PREAMBLE;
 use crate::formats::{instances, texel};
 use crate::volume::{
-    BakeParameters, DensityModel, Level, MaterialPart, PartReason, Texel, TexelInfo,
+    BakeParameters, DensityModel, Level, MaterialPart, PartReason, SelfShadow, Texel, TexelInfo,
 };
 
 /// An invalid file: its name under `fixtures/formats/invalid/`, its bytes, and a piece of the
@@ -63,7 +63,19 @@ fn small_texel() -> Texel {
                 material("leaf", true, PartReason::FoliagePattern, 20),
             ],
         },
-        levels: mip_chain(level, 1.0),
+        levels: mip_chain(level, 1.0)
+            .into_iter()
+            .map(|mut l| {
+                // Rows by the sun's height, as every bake of a tree with foliage has: the
+                // corpus is of the newest minor version.
+                let row = |h: usize| std::array::from_fn(|a| (a + h) as f32 * 0.5);
+                l.self_shadow = SelfShadow {
+                    pooled: row(1),
+                    by_height: std::array::from_fn(row),
+                };
+                l
+            })
+            .collect(),
     }
 }
 
@@ -288,6 +300,10 @@ fn texel_level_chain_files(base: &Texel, add: &mut Add) {
             e.directional.resize(n, e.directional[0]);
             e.self_shadow.resize(n, e.self_shadow[0]);
             e.wood_weight.resize(n, e.wood_weight[0]);
+            if let Some(e) = &mut p.extension5 {
+                e.self_shadow_by_height
+                    .resize(n, e.self_shadow_by_height[0]);
+            }
         }),
         "the texture's cell count (all levels) is 30859767, over the limit of 4194304",
     );
@@ -425,6 +441,24 @@ fn texel_directional_files(base: &Texel, add: &mut Add) {
         "self-shadow-nan",
         forge(&|p| p.extension2.self_shadow[0][4] = f32::NAN),
         "self-shadowing factors",
+    );
+    add(
+        "self-shadow-by-height-count",
+        forge(&|p| {
+            if let Some(e) = &mut p.extension5 {
+                e.self_shadow_by_height.pop();
+            }
+        }),
+        "self-shadowing rows by sun height for",
+    );
+    add(
+        "self-shadow-by-height-huge",
+        forge(&|p| {
+            if let Some(e) = &mut p.extension5 {
+                e.self_shadow_by_height[1][3][2] = 100.0;
+            }
+        }),
+        "for a sun 90 degrees high",
     );
 }
 

@@ -414,6 +414,7 @@ fn scatter(
             let mut own = [OwnTree::default(); MAX_OWN];
             let mut n = 0;
             let cos_g = (-dir).dot(sun.direction);
+            let sun_height = sun.height();
             for a in active.iter().take(MAX_OWN) {
                 let level = &scene.texel_of(a.instance).levels[a.level];
                 // A tree with solids: what of them its level set leaves out (a rim thinner
@@ -428,7 +429,7 @@ fn scatter(
                     instance: a.instance,
                     level: a.level,
                     factor: if foliage_scatters {
-                        level.self_shadow_at(cos_g)
+                        level.self_shadow.at(cos_g, sun_height)
                     } else {
                         1.0
                     },

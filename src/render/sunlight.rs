@@ -13,7 +13,8 @@ use crate::geom::Ray;
 use crate::rng::{self, purpose};
 
 /// A tree a foliage sample lies in, as its shadow ray must cross it: at the sample's level,
-/// its extinction times the level's self-shadowing factor (`Level::self_shadow`).
+/// its extinction times the level's self-shadowing factor (`Level::self_shadow`, for the
+/// angle between eye and sun and the sun's height).
 #[derive(Clone, Copy, Default)]
 pub struct OwnTree {
     pub instance: u32,

@@ -12,7 +12,9 @@ use crate::bake::{mip_chain, sobel};
 use crate::geom::Ray;
 use crate::import::{Material, Mesh};
 use crate::rng;
-use crate::volume::{BakeParameters, DensityModel, ISOTROPIC_LEAVES, Level, Texel, TexelInfo};
+use crate::volume::{
+    BakeParameters, DensityModel, ISOTROPIC_LEAVES, Level, SelfShadow, Texel, TexelInfo,
+};
 
 /// A texture of `dims` cells of edge `cell` from `origin`, holding wood of uniform extinction
 /// `sigma` (1/m) and colour `albedo`.
@@ -1105,7 +1107,7 @@ fn foliage_slab(leaves: [f32; 6], factor: f32, sun: Vec3, shadows: bool) -> Scen
         l.gradient.swap(0, 1);
         l.albedo.swap(0, 1);
         l.leaves = vec![leaves; l.cell_count()];
-        l.self_shadow = [factor; 6];
+        l.self_shadow = SelfShadow::uniform([factor; 6]);
     }
     let mut scene = Scene::new(
         DVec3::new(0.0, 0.0, 10.0),
