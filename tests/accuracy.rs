@@ -323,6 +323,26 @@ impl LoneTree {
         }
     }
 
+    /// The same tree with black wood, in the texture and in the mesh: only its leaves give
+    /// light (the wood still hides and shadows them).
+    fn with_black_wood(mut self) -> LoneTree {
+        for l in &mut self.texel.levels {
+            l.albedo[0].fill([0.0; 3]);
+        }
+        let mut wood_only = vec![true; self.model.mesh.materials.len()];
+        for (t, tri) in self.model.mesh.triangles.iter().enumerate() {
+            if self.foliage[t] {
+                wood_only[tri.material as usize] = false;
+            }
+        }
+        for (m, wood) in self.model.mesh.materials.iter_mut().zip(wood_only) {
+            if wood {
+                m.base_color = glam::Vec4::new(0.0, 0.0, 0.0, m.base_color.w);
+            }
+        }
+        self
+    }
+
     /// The frame's sum per channel (R, G, B, A) by `method` at `spp`, the texture read
     /// `lod_bias` levels coarser than the finest.
     fn sums(&self, light: Light, method: Method, spp: u32, lod_bias: f32) -> [f64; 4] {
@@ -456,15 +476,16 @@ fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
 
 /// The share of a lone tree's leaf light that its own crown lets the sun reach, through the
 /// texture against through the mesh: shadowed over unshadowed green by the texel method, over
-/// the same by the mesh method, with no ambient or highlight, so that only the sunlit Lambert
-/// term counts. The self-shadowing factors are fitted to this, and it depends on the sun's
-/// height as well as on its angle from the eye (texel 1.5). Over two trees, the sun 20 and 60
-/// degrees from the eye, turned up from it (45 and 85 degrees high) and across (23 and 12),
-/// at the finest level and a coarse one: the mean distance from the mesh's share is 0.075
-/// (0.117 with one row pooled over every height, as before 1.5; the conifer under the high sun
-/// then 1.16 / 1.20, now 1.03 / 0.99). The largest, 1.18, is near the hot spot with the sun
-/// above the eye: the crown's layers cut the sun's path more than the same offset across does,
-/// which a factor by angle and height does not tell apart.
+/// the same by the mesh method, with black wood and no ambient or highlight, so that only the
+/// leaves' sunlit Lambert term counts. The self-shadowing factors are fitted to this, and it
+/// depends on the sun's height as well as on its angle from the eye (texel 1.5). Over two
+/// trees, the sun 20 and 60 degrees from the eye, turned up from it (45 and 85 degrees high)
+/// and across (23 and 12), at the finest level and a coarse one: the mean distance from the
+/// mesh's share is 0.086 (0.113 with one row pooled over every height, as before 1.5; the
+/// conifer under the low sun then 0.78 / 0.82, now 0.91 / 0.97). The largest, 1.19, is near the
+/// hot spot with the sun above the eye, for every turn of either tree (1.12-1.17 at level 0,
+/// the wood lit): not the scatter of one view (README, *The leaves' self-shadowing by the
+/// sun's height*).
 #[test]
 fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
     let shading = texel_forest::render::Shading {
@@ -474,7 +495,7 @@ fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
     };
     let mut distances = Vec::new();
     for tree in ["trees/conifer.glb", "trees/broadleaf.gltf"] {
-        let tree = LoneTree::new(tree);
+        let tree = LoneTree::new(tree).with_black_wood();
         for g in [20.0, 60.0] {
             for sideways in [false, true] {
                 let light = |shadows| Light {
@@ -503,7 +524,7 @@ fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
     }
     let mean = distances.iter().sum::<f64>() / distances.len() as f64;
     println!("mean distance from the mesh's sunlit share: {mean:.3}");
-    assert!(mean < 0.09, "{mean}");
+    assert!(mean < 0.1, "{mean}");
 }
 
 /// Two trees whose crowns overlap, as a forest's neighbours do. The renderer sums their

@@ -23,8 +23,8 @@
 //! Both depend on the angle `g` between the directions to the eye and to the sun, on the
 //! level, and on the sun's height, measured (the fixture conifer, level 0, 90 degrees from
 //! the eye, needs 3.1 with the sun on the horizon and 7.9 with it overhead; one
-//! factor pooled over every height left a lone tree under a sun 85 degrees high 15-20 % too
-//! sunlit). So each level stores a factor per angle in [`SELF_SHADOW_ANGLES`] and per height
+//! factor pooled over every height left the lone fixture trees' leaves under a sun 85 degrees
+//! high 11-19 % too sunlit). So each level stores a factor per angle in [`SELF_SHADOW_ANGLES`] and per height
 //! in [`SUN_HEIGHTS`], and one pooled over every height for readers before texel 1.5: the
 //! multiplier on the tree's own extinction along a foliage sample's shadow ray that makes the
 //! mean sun visibility of what the eye sees equal the mesh's.
