@@ -500,30 +500,9 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
     let (header, used): (Header, usize) =
         bincode::decode_from_slice(bytes, header_config()).map_err(decode_error)?;
     let mut rest = &bytes[used..];
-    let extension = if minor >= 1 {
-        let (extension, used): (HeaderV1_1, usize) =
-            bincode::decode_from_slice(rest, header_config()).map_err(decode_error)?;
-        rest = &rest[used..];
-        extension
-    } else {
-        HeaderV1_1::default()
-    };
-    let extension2 = if minor >= 2 {
-        let (extension2, used): (HeaderV1_2, usize) =
-            bincode::decode_from_slice(rest, header_config()).map_err(decode_error)?;
-        rest = &rest[used..];
-        Some(extension2)
-    } else {
-        None
-    };
-    let extension5 = if minor >= 5 {
-        let (extension5, used): (HeaderV1_5, usize) =
-            bincode::decode_from_slice(rest, header_config()).map_err(decode_error)?;
-        rest = &rest[used..];
-        Some(extension5)
-    } else {
-        None
-    };
+    let extension: HeaderV1_1 = appended(&mut rest, minor >= 1)?.unwrap_or_default();
+    let extension2: Option<HeaderV1_2> = appended(&mut rest, minor >= 2)?;
+    let extension5: Option<HeaderV1_5> = appended(&mut rest, minor >= 5)?;
     if !rest.is_empty() && minor <= MINOR {
         return Err(TexelError::Header(format!(
             "{} bytes after the header",
@@ -561,6 +540,21 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
         extension,
         fits,
     })
+}
+
+/// The fields a minor version appended to the header, decoded from the front of `rest`
+/// (which then starts after them) where the file is of that version or later (`present`).
+fn appended<T: bincode::Decode<()>>(
+    rest: &mut &[u8],
+    present: bool,
+) -> Result<Option<T>, TexelError> {
+    if !present {
+        return Ok(None);
+    }
+    let (fields, used) = bincode::decode_from_slice(rest, header_config())
+        .map_err(|e| TexelError::Header(container::decode_error(&e)))?;
+    *rest = &rest[used..];
+    Ok(Some(fields))
 }
 
 /// A decoded, checked header: the fields of every minor version this reader knows.
@@ -898,15 +892,22 @@ fn validate(
     Ok(())
 }
 
+/// Refuses `count` entries of a per-level field (`what`) where the header has another number
+/// of levels.
+fn one_per_level(h: &Header, count: usize, what: &str) -> Result<(), TexelError> {
+    if count != h.levels.len() {
+        return bad(format!("{count} {what} for {} levels", h.levels.len()));
+    }
+    Ok(())
+}
+
 /// The 1.5 rows: one set per level, every factor within 0 to 64.
 fn validate_self_shadow_by_height(h: &Header, e: &HeaderV1_5) -> Result<(), TexelError> {
-    if e.self_shadow_by_height.len() != h.levels.len() {
-        return bad(format!(
-            "{} sets of self-shadowing rows by sun height for {} levels",
-            e.self_shadow_by_height.len(),
-            h.levels.len()
-        ));
-    }
+    one_per_level(
+        h,
+        e.self_shadow_by_height.len(),
+        "sets of self-shadowing rows by sun height",
+    )?;
     for (i, rows) in e.self_shadow_by_height.iter().enumerate() {
         for (row, height) in rows.iter().zip(SUN_HEIGHTS) {
             if !row.iter().all(|v| (0.0..=SELF_SHADOW_MAX).contains(v)) {
@@ -1039,13 +1040,7 @@ fn validate_materials(h: &Header, extension: &HeaderV1_1) -> Result<(), TexelErr
 /// (1.2) One finite, bounded directional form, one row of self-shadowing factors and one wood
 /// weight per level.
 fn validate_directional(h: &Header, e: &HeaderV1_2) -> Result<(), TexelError> {
-    if e.directional.len() != h.levels.len() {
-        return bad(format!(
-            "{} directional forms for {} levels",
-            e.directional.len(),
-            h.levels.len()
-        ));
-    }
+    one_per_level(h, e.directional.len(), "directional forms")?;
     for (i, s) in e.directional.iter().enumerate() {
         if !s
             .iter()
@@ -1056,13 +1051,7 @@ fn validate_directional(h: &Header, e: &HeaderV1_2) -> Result<(), TexelError> {
             ));
         }
     }
-    if e.self_shadow.len() != h.levels.len() {
-        return bad(format!(
-            "{} self-shadowing rows for {} levels",
-            e.self_shadow.len(),
-            h.levels.len()
-        ));
-    }
+    one_per_level(h, e.self_shadow.len(), "self-shadowing rows")?;
     for (i, s) in e.self_shadow.iter().enumerate() {
         if !s.iter().all(|v| (0.0..=SELF_SHADOW_MAX).contains(v)) {
             return bad(format!(
@@ -1070,13 +1059,7 @@ fn validate_directional(h: &Header, e: &HeaderV1_2) -> Result<(), TexelError> {
             ));
         }
     }
-    if e.wood_weight.len() != h.levels.len() {
-        return bad(format!(
-            "{} wood weights for {} levels",
-            e.wood_weight.len(),
-            h.levels.len()
-        ));
-    }
+    one_per_level(h, e.wood_weight.len(), "wood weights")?;
     if let Some((i, w)) = e
         .wood_weight
         .iter()
@@ -1178,12 +1161,7 @@ pub(crate) mod tests {
     fn solids_are_written_as_1_3_and_read_back() {
         let plain = sample_texel(5);
         let bytes = encode(&plain).unwrap();
-        assert_eq!(
-            container::open(&bytes, MAGIC, "texel", MAJOR)
-                .unwrap()
-                .minor,
-            2
-        );
+        assert_eq!(minor_of(&bytes), 2);
         let mut t = plain.clone();
         let mut s = Stream::new(8, 0);
         for l in &mut t.levels[..2] {
@@ -1195,12 +1173,7 @@ pub(crate) mod tests {
             });
         }
         let bytes = encode(&t).unwrap();
-        assert_eq!(
-            container::open(&bytes, MAGIC, "texel", MAJOR)
-                .unwrap()
-                .minor,
-            3
-        );
+        assert_eq!(minor_of(&bytes), 3);
         assert_eq!(decode(&bytes).unwrap(), t);
         let half = forge(&t, |p| {
             for c in &mut p.header.channels {
@@ -1234,8 +1207,7 @@ pub(crate) mod tests {
                 .collect();
         }
         let bytes = encode(&t).unwrap();
-        let opened = container::open(&bytes, MAGIC, "texel", MAJOR).unwrap();
-        assert_eq!(opened.minor, 4);
+        assert_eq!(minor_of(&bytes), 4);
         assert_eq!(decode(&bytes).unwrap(), t);
         // The channel is the last, after the 1.2 channels (no solids here).
         let parts = parts(&t);
@@ -1312,6 +1284,23 @@ pub(crate) mod tests {
         bytes
     }
 
+    /// The minor version `bytes` declare.
+    fn minor_of(bytes: &[u8]) -> u16 {
+        container::open(bytes, MAGIC, "texel", MAJOR).unwrap().minor
+    }
+
+    /// `bytes` as an older writer of minor version `minor` wrote them: the last `cut` header
+    /// bytes (the fields later versions appended) left out.
+    fn older(bytes: &[u8], cut: usize, minor: u16) -> Vec<u8> {
+        let p = container::preamble(bytes).unwrap();
+        let h = container::PREAMBLE + p.header_len as usize;
+        let mut b = bytes[..h - cut].to_vec();
+        b[10..12].copy_from_slice(&minor.to_le_bytes());
+        b[12..16].copy_from_slice(&(p.header_len - cut as u32).to_le_bytes());
+        b.extend_from_slice(&bytes[h..]);
+        recrc(b)
+    }
+
     #[test]
     fn a_header_that_breaks_the_mip_rule_is_refused_by_writer_and_reader() {
         let mut t = sample_texel(2);
@@ -1371,18 +1360,10 @@ pub(crate) mod tests {
     fn self_shadowing_by_sun_height_is_written_as_1_5_and_read_back() {
         let t = with_heights(sample_texel(3));
         let bytes = encode(&t).unwrap();
-        let opened = container::open(&bytes, MAGIC, "texel", MAJOR).unwrap();
-        assert_eq!(opened.minor, 5);
+        assert_eq!(minor_of(&bytes), 5);
         assert_eq!(decode(&bytes).unwrap(), t);
         // As a 1.4 reader reads it: the same header, minor 4, the appended field left out.
-        let p = container::preamble(&bytes).unwrap();
-        let appended = 8 + 4 * 6 * 4 * t.levels.len();
-        let h = container::PREAMBLE + p.header_len as usize;
-        let mut b = bytes[..h - appended].to_vec();
-        b[10..12].copy_from_slice(&4u16.to_le_bytes());
-        b[12..16].copy_from_slice(&(p.header_len - appended as u32).to_le_bytes());
-        b.extend_from_slice(&bytes[h..]);
-        let old = decode(&recrc(b)).unwrap();
+        let old = decode(&older(&bytes, 8 + 4 * 6 * 4 * t.levels.len(), 4)).unwrap();
         for (l, o) in t.levels.iter().zip(&old.levels) {
             assert_eq!(o.self_shadow, SelfShadow::uniform(l.self_shadow.pooled));
         }
@@ -1403,14 +1384,7 @@ pub(crate) mod tests {
         });
         let e = decode(&short).unwrap_err().to_string();
         assert!(e.contains("by sun height"), "{e}");
-        let plain = sample_texel(3);
-        let opened_plain = encode(&plain).unwrap();
-        assert_eq!(
-            container::open(&opened_plain, MAGIC, "texel", MAJOR)
-                .unwrap()
-                .minor,
-            2
-        );
+        assert_eq!(minor_of(&encode(&sample_texel(3)).unwrap()), 2);
     }
 
     #[test]
@@ -1438,18 +1412,11 @@ pub(crate) mod tests {
     fn a_v1_0_file_reads_without_the_material_table() {
         let mut t = sample_texel(4);
         let bytes = encode(&t).unwrap();
-        let p = container::preamble(&bytes).unwrap();
         // Drop the v1.1 fields, wood pattern `Some("bark")` (1 + 8 + 4 bytes) and the
         // material table, and the v1.2 forms (a length and 7 f32 per level), which end the
         // header.
         let table = 8 + (8 + 4 + 4 + 4 + 8) + (8 + 9 + 4 + 4 + 8);
-        let cut = 13 + table + directional_bytes(&t);
-        let h = container::PREAMBLE + p.header_len as usize;
-        let mut b = bytes[..h - cut].to_vec();
-        b[10..12].copy_from_slice(&0u16.to_le_bytes());
-        b[12..16].copy_from_slice(&(p.header_len - cut as u32).to_le_bytes());
-        b.extend_from_slice(&bytes[h..]);
-        let back = decode(&recrc(b)).unwrap();
+        let back = decode(&older(&bytes, 13 + table + directional_bytes(&t), 0)).unwrap();
         t.info.materials.clear();
         t.info.parameters.wood_pattern = None;
         assert_eq!(back, isotropic(t));
@@ -1477,14 +1444,7 @@ pub(crate) mod tests {
         t.levels[0].directional = [0.5, 2.0, 1.0, 0.1, 0.0, -0.1, 0.2];
         let bytes = encode(&t).unwrap();
         assert_eq!(decode(&bytes).unwrap(), t);
-        let p = container::preamble(&bytes).unwrap();
-        let cut = directional_bytes(&t);
-        let h = container::PREAMBLE + p.header_len as usize;
-        let mut b = bytes[..h - cut].to_vec();
-        b[10..12].copy_from_slice(&1u16.to_le_bytes());
-        b[12..16].copy_from_slice(&(p.header_len - cut as u32).to_le_bytes());
-        b.extend_from_slice(&bytes[h..]);
-        let back = decode(&recrc(b)).unwrap();
+        let back = decode(&older(&bytes, directional_bytes(&t), 1)).unwrap();
         assert_eq!(back, isotropic(t));
     }
 }
