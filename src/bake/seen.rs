@@ -22,12 +22,12 @@
 //!
 //! Both depend on the angle `g` between the directions to the eye and to the sun, on the
 //! level, and on the sun's height, measured (the fixture conifer, level 0, 90 degrees from
-//! the eye, needs 3.1 with the sun on the horizon and 7.9 with it overhead; one
-//! factor pooled over every height left the lone fixture trees' leaves under a sun 85 degrees
-//! high 11-19 % too sunlit). So each level stores a factor per angle in [`SELF_SHADOW_ANGLES`] and per height
-//! in [`SUN_HEIGHTS`], and one pooled over every height for readers before texel 1.5: the
-//! multiplier on the tree's own extinction along a foliage sample's shadow ray that makes the
-//! mean sun visibility of what the eye sees equal the mesh's.
+//! the eye, needs 3.1 with the sun on the horizon and 7.9 with it overhead; one factor pooled
+//! over every height left the lone fixture trees' leaves under a sun 85 degrees high 11-19 %
+//! too sunlit). So each level stores a factor per angle in [`SELF_SHADOW_ANGLES`] and per
+//! height in [`SUN_HEIGHTS`], and one pooled over every height for readers before texel 1.5:
+//! the multiplier on the tree's own extinction along a foliage sample's shadow ray that makes
+//! the mean sun visibility of what the eye sees equal the mesh's.
 //!
 //! The measurement. For 12 view directions `v` (elevations 10, 35 and 60 degrees, 4 azimuths)
 //! and each angle, [`SUNS_PER_ANGLE`] sun directions `l` at that angle from `v`, turned about
@@ -75,16 +75,10 @@ fn views() -> Vec<DVec3> {
     v
 }
 
-/// `v` turned by `degrees` about an axis perpendicular to it: up towards +Y (`sideways`
-/// false), or about +Y's projection (`true`).
-fn turned(v: DVec3, degrees: f64, sideways: bool) -> DVec3 {
+/// `v` turned up towards +Y by `degrees`, about the horizontal axis perpendicular to it.
+fn turned_up(v: DVec3, degrees: f64) -> DVec3 {
     let horizontal = v.cross(DVec3::Y).normalize();
-    let axis = if sideways {
-        v.cross(horizontal).normalize()
-    } else {
-        horizontal
-    };
-    glam::DQuat::from_axis_angle(axis, degrees.to_radians()) * v
+    glam::DQuat::from_axis_angle(horizontal, degrees.to_radians()) * v
 }
 
 /// One (view, sun) pair's mesh verdicts: the summed response of the foliage the eye sees, and
@@ -427,7 +421,7 @@ fn suns(v: DVec3, angle: f64, k: usize) -> Vec<DVec3> {
     if angle == 0.0 {
         return vec![v];
     }
-    let up = turned(v, angle, false);
+    let up = turned_up(v, angle);
     (0..SUNS_PER_ANGLE)
         .map(|j| {
             let about =
@@ -569,17 +563,22 @@ mod tests {
         assert_eq!(fit(&[], 0.5), 1.0);
     }
 
-    /// The sun directions are at the stated angle from the view.
+    /// The suns of a view are at the stated angle from it, above the horizon, and at angles
+    /// below 180 degrees there is at least one (up to four, one at the hot spot).
     #[test]
     fn suns_are_at_the_angle() {
-        for v in views() {
+        for (k, v) in views().into_iter().enumerate() {
             assert!((v.length() - 1.0).abs() < 1e-12);
-            for angle in SELF_SHADOW_ANGLES {
-                for sideways in [false, true] {
-                    let l = turned(v, f64::from(angle), sideways);
-                    let want = f64::from(angle).to_radians().cos();
+            for angle in SELF_SHADOW_ANGLES.map(f64::from) {
+                let suns = suns(v, angle, k);
+                let most = if angle == 0.0 { 1 } else { SUNS_PER_ANGLE };
+                assert!(suns.len() <= most, "{angle}: {}", suns.len());
+                assert!(angle == 180.0 || !suns.is_empty(), "{angle}");
+                for l in suns {
+                    let want = angle.to_radians().cos();
                     assert!((v.dot(l) - want).abs() < 1e-12, "{angle}: {}", v.dot(l));
                     assert!((l.length() - 1.0).abs() < 1e-12);
+                    assert!(l.y >= 0.0);
                 }
             }
         }
