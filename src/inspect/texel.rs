@@ -305,7 +305,7 @@ fn write_grid(o: &mut String, s: &Summary) {
         .collect();
     let _ = writeln!(
         o,
-        "self-shadow   own-extinction factor of a leaf's shadow ray at {} degrees from the eye, per level:",
+        "self-shadow   own-extinction factor of a leaf's shadow ray at {} degrees from the eye, per level: pooled over the sun's heights, then per height where they differ",
         angles.join("/")
     );
     let row = |r: &[f32; 6]| {
