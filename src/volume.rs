@@ -536,21 +536,15 @@ impl Level {
             return None;
         }
         let (density, per_density) = (&self.density[part], 1.0 / d);
-        let weights = std::array::from_fn(|k| w[k] * density[idx[k]] * per_density);
-        Some((d, mixed(moments, &idx, &weights)))
-    }
-}
-
-/// The moments of the trilinear cells `idx` summed with `weights`.
-#[inline]
-fn mixed(moments: &[[f32; 6]], idx: &[usize; 8], weights: &[f32; 8]) -> [f32; 6] {
-    let mut sum = [0.0f32; 6];
-    for k in 0..8 {
-        for (sum, m) in sum.iter_mut().zip(&moments[idx[k]]) {
-            *sum += m * weights[k];
+        let mut sum = [0.0f32; 6];
+        for k in 0..8 {
+            let weight = w[k] * density[idx[k]] * per_density;
+            for (sum, m) in sum.iter_mut().zip(&moments[idx[k]]) {
+                *sum += m * weight;
+            }
         }
+        Some((d, sum))
     }
-    sum
 }
 
 /// Per cell `i` of a level, whether the trilinear stencil whose lowest corner is `i` (the
@@ -1058,6 +1052,14 @@ mod tests {
         }
         // Where no wood reaches (the empty cell's centre), no moment.
         assert!(l.wood_normals_at(Vec3::new(1.5, 0.5, 0.5)).is_none());
+        // The foliage's leaf normals mix the same way, by the foliage each cell holds.
+        two.leaves = vec![upright, lying];
+        two.density[1] = vec![2.0, 1.0];
+        let (d, m) = two.foliage_leaves(Vec3::new(0.75, 0.5, 0.5)).unwrap();
+        assert!((d - 1.75).abs() < 1e-6, "{d}");
+        for k in 0..6 {
+            assert!((m[k] - want[k]).abs() < 1e-6, "{m:?} against {want:?}");
+        }
     }
 
     /// Skipping empty stencils changes no value: a sparse level (a few dense cells, one of

@@ -495,11 +495,8 @@ pub fn encode_v1_1(texel: &Texel) -> Vec<u8> {
 /// every later minor version this reader knows. Bytes after those are refused, unless the file
 /// is of a newer minor version, whose appended fields this reader skips.
 fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
-    let decode_error =
-        |e: bincode::error::DecodeError| TexelError::Header(container::decode_error(&e));
-    let (header, used): (Header, usize) =
-        bincode::decode_from_slice(bytes, header_config()).map_err(decode_error)?;
-    let mut rest = &bytes[used..];
+    let mut rest = bytes;
+    let header: Header = decode_front(&mut rest)?;
     let extension: HeaderV1_1 = appended(&mut rest, minor >= 1)?.unwrap_or_default();
     let extension2: Option<HeaderV1_2> = appended(&mut rest, minor >= 2)?;
     let extension5: Option<HeaderV1_5> = appended(&mut rest, minor >= 5)?;
@@ -542,19 +539,21 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
     })
 }
 
-/// The fields a minor version appended to the header, decoded from the front of `rest`
-/// (which then starts after them) where the file is of that version or later (`present`).
+/// Header fields decoded from the front of `rest`, which then starts after them.
+fn decode_front<T: bincode::Decode<()>>(rest: &mut &[u8]) -> Result<T, TexelError> {
+    let (fields, used) = bincode::decode_from_slice(rest, header_config())
+        .map_err(|e| TexelError::Header(container::decode_error(&e)))?;
+    *rest = &rest[used..];
+    Ok(fields)
+}
+
+/// The fields a minor version appended to the header, where the file is of that version or
+/// later (`present`).
 fn appended<T: bincode::Decode<()>>(
     rest: &mut &[u8],
     present: bool,
 ) -> Result<Option<T>, TexelError> {
-    if !present {
-        return Ok(None);
-    }
-    let (fields, used) = bincode::decode_from_slice(rest, header_config())
-        .map_err(|e| TexelError::Header(container::decode_error(&e)))?;
-    *rest = &rest[used..];
-    Ok(Some(fields))
+    present.then(|| decode_front(rest)).transpose()
 }
 
 /// A decoded, checked header: the fields of every minor version this reader knows.
@@ -901,6 +900,11 @@ fn one_per_level(h: &Header, count: usize, what: &str) -> Result<(), TexelError>
     Ok(())
 }
 
+/// Whether every self-shadowing factor of `row` is a number within 0 to 64.
+fn factors_in_range(row: &[f32; 6]) -> bool {
+    row.iter().all(|v| (0.0..=SELF_SHADOW_MAX).contains(v))
+}
+
 /// The 1.5 rows: one set per level, every factor within 0 to 64.
 fn validate_self_shadow_by_height(h: &Header, e: &HeaderV1_5) -> Result<(), TexelError> {
     one_per_level(
@@ -910,7 +914,7 @@ fn validate_self_shadow_by_height(h: &Header, e: &HeaderV1_5) -> Result<(), Texe
     )?;
     for (i, rows) in e.self_shadow_by_height.iter().enumerate() {
         for (row, height) in rows.iter().zip(SUN_HEIGHTS) {
-            if !row.iter().all(|v| (0.0..=SELF_SHADOW_MAX).contains(v)) {
+            if !factors_in_range(row) {
                 return bad(format!(
                     "level {i}'s self-shadowing factors for a sun {height} degrees high {row:?} have one that is not a number within 0 to 64"
                 ));
@@ -1053,7 +1057,7 @@ fn validate_directional(h: &Header, e: &HeaderV1_2) -> Result<(), TexelError> {
     }
     one_per_level(h, e.self_shadow.len(), "self-shadowing rows")?;
     for (i, s) in e.self_shadow.iter().enumerate() {
-        if !s.iter().all(|v| (0.0..=SELF_SHADOW_MAX).contains(v)) {
+        if !factors_in_range(s) {
             return bad(format!(
                 "level {i}'s self-shadowing factors {s:?} have one that is not a number within 0 to 64"
             ));
