@@ -38,17 +38,73 @@ pub const SELF_SHADOW_ANGLES: [f32; 6] = [0.0, 15.0, 30.0, 60.0, 90.0, 180.0];
 /// its self-shadowing factors since texel 1.5 (`formats/texel.md`, *Self-shadowing*).
 pub const SUN_HEIGHTS: [f32; 4] = [0.0, 30.0, 60.0, 90.0];
 
+/// Heights of the eye (degrees above the model's horizontal plane, seen from the point) at
+/// which a level stores its self-shadowing factors since texel 1.6: the bake's view elevations.
+pub const EYE_HEIGHTS: [f32; 3] = [10.0, 35.0, 60.0];
+
+/// Turns of the sun about the direction to the eye (degrees: 0 where the sun stands above the
+/// eye's line of sight, 90 beside it, 180 below it) at which a level stores its
+/// self-shadowing factors since texel 1.6.
+pub const SUN_TURNS: [f32; 3] = [0.0, 90.0, 180.0];
+
+/// A level's self-shadowing rows by the eye's height and the sun's turn about the eye
+/// (texel 1.6): `[eye height][sun turn]`, each row at [`SELF_SHADOW_ANGLES`].
+pub type ByView = [[[f32; 6]; SUN_TURNS.len()]; EYE_HEIGHTS.len()];
+
+/// Where the sun stands as seen from a point the eye sees: what a level's self-shadowing
+/// factor depends on. A tree turned about +Y sees the same, so model and world space agree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SunFromEye {
+    /// Degrees between the directions to the eye and to the sun.
+    pub angle: f32,
+    /// Degrees of the sun above the horizontal plane.
+    pub sun_height: f32,
+    /// Degrees of the eye above the horizontal plane.
+    pub eye_height: f32,
+    /// Degrees the sun is turned about the direction to the eye, from up (see [`SUN_TURNS`]);
+    /// 90 where that is undefined (the eye straight above or below, or the sun behind it).
+    pub turn: f32,
+}
+
+impl SunFromEye {
+    /// From the unit directions from the point to the eye and to the sun.
+    pub fn new(to_eye: Vec3, to_sun: Vec3) -> SunFromEye {
+        let degrees = |cos: f32| cos.clamp(-1.0, 1.0).acos().to_degrees();
+        // Parts shorter than 1e-4 (a hundredth of a degree off the line of sight) are
+        // rounding, not a direction.
+        let direction = |v: Vec3| (v.length_squared() > 1e-8).then(|| v.normalize());
+        let up = direction(Vec3::Y - to_eye * to_eye.y);
+        let offset = direction(to_sun - to_eye * to_eye.dot(to_sun));
+        SunFromEye {
+            angle: degrees(to_eye.dot(to_sun)),
+            sun_height: 90.0 - degrees(to_sun.y),
+            eye_height: 90.0 - degrees(to_eye.y),
+            turn: match (up, offset) {
+                (Some(up), Some(offset)) => degrees(up.dot(offset)),
+                _ => 90.0,
+            },
+        }
+    }
+}
+
 /// A level's self-shadowing factors: the multiplier on the tree's own extinction along a
 /// foliage sample's shadow ray, per angle of [`SELF_SHADOW_ANGLES`] between the directions to
-/// the eye and to the sun, and per height of the sun.
+/// the eye and to the sun, and by where the sun and the eye stand.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SelfShadow {
     /// Fitted to suns of every height alike: the only row of texel 1.2 to 1.4, which readers
     /// of those versions use.
     pub pooled: [f32; 6],
     /// One row per height of [`SUN_HEIGHTS`] (texel 1.5): how much a tree shadows what the
-    /// eye sees of it depends on how high the sun stands, not only on the angle.
+    /// eye sees of it depends on how high the sun stands, not only on the angle. What 1.5
+    /// readers use.
     pub by_height: [[f32; 6]; SUN_HEIGHTS.len()],
+    /// Rows by the eye's height and the sun's turn about the eye (texel 1.6): at one angle the
+    /// factor depends on whether the sun stands above the eye's line of sight, beside it or
+    /// below it (the fixture conifer, level 0, the eye 25 degrees high, the sun 20 from it:
+    /// 1.12, 0.56 and 0.78), which a row by the sun's height pools over the views. `None` in
+    /// files before 1.6, whose renderer reads `by_height`.
+    pub by_view: Option<ByView>,
 }
 
 impl SelfShadow {
@@ -60,18 +116,36 @@ impl SelfShadow {
         SelfShadow {
             pooled: row,
             by_height: [row; SUN_HEIGHTS.len()],
+            by_view: None,
         }
     }
 
-    /// The factor for an angle of `cos_g` (its cosine) between the directions to the eye and
-    /// to the sun, with the sun at `sun_height` (degrees above the horizontal; clamped to 0 to
-    /// 90): linear in the angle and in the height between the stored ones.
-    pub fn at(&self, cos_g: f32, sun_height: f32) -> f32 {
-        let g = cos_g.clamp(-1.0, 1.0).acos().to_degrees();
-        let (i, u) = bracket(&SELF_SHADOW_ANGLES, g);
-        let (j, w) = bracket(&SUN_HEIGHTS, sun_height);
+    /// The factor where the sun stands at `s`: linear in the angle between the stored ones,
+    /// and in the eye's height and the sun's turn (1.6), else in the sun's height (1.5), each
+    /// clamped to the stored range.
+    pub fn at(&self, s: &SunFromEye) -> f32 {
+        let (i, u) = bracket(&SELF_SHADOW_ANGLES, s.angle);
         let row = |r: &[f32; 6]| r[i] * (1.0 - u) + r[i + 1] * u;
-        row(&self.by_height[j]) * (1.0 - w) + row(&self.by_height[j + 1]) * w
+        match &self.by_view {
+            Some(rows) => {
+                let (eye, turn) = (hat(&EYE_HEIGHTS, s.eye_height), hat(&SUN_TURNS, s.turn));
+                let mut k = 0.0;
+                for (we, rows) in eye.iter().zip(rows) {
+                    for (wt, r) in turn.iter().zip(rows) {
+                        if we * wt > 0.0 {
+                            k += we * wt * row(r);
+                        }
+                    }
+                }
+                k
+            }
+            None => hat(&SUN_HEIGHTS, s.sun_height)
+                .iter()
+                .zip(&self.by_height)
+                .filter(|(w, _)| **w > 0.0)
+                .map(|(w, r)| w * row(r))
+                .sum(),
+        }
     }
 }
 
@@ -84,6 +158,17 @@ fn bracket(nodes: &[f32], x: f32) -> (usize, f32) {
         .unwrap_or(nodes.len() - 2);
     let u = ((x - nodes[i]) / (nodes[i + 1] - nodes[i])).clamp(0.0, 1.0);
     (i, if u.is_nan() { 0.0 } else { u })
+}
+
+/// The weight of each of the increasing `nodes` in linear interpolation at `x` (clamped to
+/// the ends): at most two are not 0, and they sum to 1. The renderer reads a table with these
+/// weights, and the bake counts a measurement in each node's fit with them.
+pub fn hat<const N: usize>(nodes: &[f32; N], x: f32) -> [f32; N] {
+    let (i, u) = bracket(nodes, x);
+    let mut w = [0.0; N];
+    w[i] = 1.0 - u;
+    w[i + 1] += u;
+    w
 }
 
 /// The leaf-normal moment of leaves facing every way alike: `E[n n^T] = I / 3`.
@@ -1008,21 +1093,76 @@ mod tests {
         let s = SelfShadow {
             pooled: row(0.0),
             by_height: [row(0.0), row(3.0), row(6.0), row(9.0)],
+            by_view: None,
         };
-        let cos = |degrees: f32| degrees.to_radians().cos();
+        let at = |s: &SelfShadow, angle: f32, sun_height: f32| {
+            s.at(&SunFromEye {
+                angle,
+                sun_height,
+                eye_height: 20.0,
+                turn: 0.0,
+            })
+        };
         let near = |a: f32, b: f32| (a - b).abs() < 1e-4;
-        assert!(near(s.at(1.0, 0.0), 0.0));
-        assert!(near(s.at(cos(15.0), 0.0), 1.0));
+        assert!(near(at(&s, 0.0, 0.0), 0.0));
+        assert!(near(at(&s, 15.0, 0.0), 1.0));
         // Halfway between the rows for 30 and 60 degrees: 4 and 7.
-        assert!(near(s.at(cos(15.0), 45.0), 5.5));
+        assert!(near(at(&s, 15.0, 45.0), 5.5));
         // Halfway between 30 and 60 degrees from the eye, overhead: 11 and 13.
-        assert!(near(s.at(cos(45.0), 90.0), 12.0));
-        assert!(near(s.at(cos(15.0), -20.0), s.at(cos(15.0), 0.0)));
-        assert!(near(s.at(cos(15.0), 120.0), s.at(cos(15.0), 90.0)));
+        assert!(near(at(&s, 45.0, 90.0), 12.0));
+        assert!(near(at(&s, 15.0, -20.0), at(&s, 15.0, 0.0)));
+        assert!(near(at(&s, 15.0, 120.0), at(&s, 15.0, 90.0)));
         let one = SelfShadow::uniform(row(0.0));
         for h in [0.0, 17.0, 45.0, 90.0] {
-            assert!(near(one.at(cos(45.0), h), 3.0));
+            assert!(near(at(&one, 45.0, h), 3.0));
         }
+    }
+
+    /// Texel 1.6's rows: linear in the eye's height and the sun's turn between the stored
+    /// ones, clamped at the ends; the sun's height no longer read.
+    #[test]
+    fn self_shadowing_by_view_interpolates_in_the_eyes_height_and_the_suns_turn() {
+        let row = |k: f32| [0.0, k, k, k, k, k];
+        let s = SelfShadow {
+            by_view: Some(std::array::from_fn(|e| {
+                std::array::from_fn(|t| row(1.0 + 10.0 * e as f32 + t as f32))
+            })),
+            ..SelfShadow::uniform(row(100.0))
+        };
+        let at = |eye_height: f32, turn: f32| {
+            s.at(&SunFromEye {
+                angle: 30.0,
+                sun_height: 45.0,
+                eye_height,
+                turn,
+            })
+        };
+        let near = |a: f32, b: f32| (a - b).abs() < 1e-4;
+        assert!(near(at(10.0, 0.0), 1.0));
+        assert!(near(at(60.0, 180.0), 23.0));
+        // A quarter of the way from 10 to 35 degrees high, halfway from up to beside.
+        assert!(near(at(16.25, 45.0), 1.0 + 2.5 + 0.5));
+        assert!(near(at(-30.0, 90.0), at(10.0, 90.0)));
+        assert!(near(at(85.0, 135.0), 22.5));
+    }
+
+    /// Where the sun stands from the eye: angle, heights and the turn about the line of sight,
+    /// whose cases are up, beside, below, and undefined (90) where the eye looks straight down.
+    #[test]
+    fn the_sun_is_placed_about_the_eyes_line_of_sight() {
+        let unit = |x: f32, y: f32, z: f32| Vec3::new(x, y, z).normalize();
+        let eye = unit(0.0, 1.0, 1.0);
+        let s = SunFromEye::new(eye, unit(0.0, 1.0, 0.0));
+        assert!(
+            // acos near 1 in f32: a few hundredths of a degree.
+            (s.angle - 45.0).abs() < 1e-3 && s.turn.abs() < 0.1,
+            "{s:?}"
+        );
+        assert!((s.eye_height - 45.0).abs() < 1e-3 && (s.sun_height - 90.0).abs() < 1e-3);
+        assert!((SunFromEye::new(eye, unit(1.0, 1.0, 1.0)).turn - 90.0).abs() < 1e-3);
+        assert!((SunFromEye::new(eye, unit(0.0, 0.0, 1.0)).turn - 180.0).abs() < 0.1);
+        assert_eq!(SunFromEye::new(Vec3::Y, unit(1.0, 1.0, 0.0)).turn, 90.0);
+        assert_eq!(SunFromEye::new(eye, eye).turn, 90.0);
     }
 
     /// A branch one cell wide among empty cells is read with its own normals wherever its

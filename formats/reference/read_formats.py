@@ -11,7 +11,7 @@ class Bad(Exception):
     pass
 
 MAGIC = {b"\x89TEXEL\r\n": "texel", b"\x89TXINST\n": "instances"}
-MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 5, "instances": 1}
+MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 6, "instances": 1}
 CELL_LIMIT, TREE_LIMIT = 2**25, 2**24           # the reader's allocation limits (texel's defaults)
 
 def f32(x):  # round a Python float to binary32
@@ -131,7 +131,7 @@ def read_texel_header(c, minor, R):
          "levels": c.vec(lambda: {"dims": list(c.un("3I")), "cell": c.f64()}),
          "channels": c.vec(lambda: {"name": c.string(), "components": c.u8(), "encoding": c.enum([F32, U16]), "unit": c.string()}),
          "wood_pattern": None, "materials": [], "directional": None, "self_shadow": None, "wood_weight": None,
-         "self_shadow_by_height": None}
+         "self_shadow_by_height": None, "self_shadow_by_view": None}
     if minor >= 1:
         h["wood_pattern"] = c.option(c.string)
         h["materials"] = c.vec(lambda: {"name": c.string(), "reason": c.enum(REASONS), "cut": c.f32(), "triangles": c.u64()})
@@ -141,6 +141,9 @@ def read_texel_header(c, minor, R):
         h["wood_weight"] = c.vec(c.f32)
     if minor >= 5:
         h["self_shadow_by_height"] = c.vec(lambda: [list(c.un("6f")) for _ in range(4)])
+    if minor >= 6:
+        # [eye height 10, 35, 60][sun turn 0, 90, 180], each a row at the six angles
+        h["self_shadow_by_view"] = c.vec(lambda: [[list(c.un("6f")) for _ in range(3)] for _ in range(3)])
     if not all(map(math.isfinite, h["model_min"] + h["model_max"] + h["origin"])): raise Bad("1: non-finite model_min, model_max or origin")
     g = h["extinction_scale"]
     if not (math.isfinite(g) and g > 0): raise Bad(f"2: extinction_scale {g} is not positive and finite")
@@ -186,6 +189,10 @@ def read_texel_header(c, minor, R):
     else:
         # Before 1.5 the pooled row serves every height of the sun.
         h["self_shadow_by_height"] = [[list(row)] * 4 for row in h["self_shadow"]]
+    KV = h["self_shadow_by_view"]
+    if KV is not None:
+        if len(KV) != len(L): raise Bad(f"9d: {len(KV)} self-shadowing entries by eye height and sun turn for {len(L)} levels")
+        if any(not 0 <= v <= 64 for sets in KV for rows in sets for row in rows for v in row): raise Bad("9d: a self-shadowing factor by eye height and sun turn outside [0, 64]")
     cells = sum(math.prod(l["dims"]) for l in L)
     per_cell = sum(k["components"] * (4 if k["encoding"] == F32 else 2) for k in ch)
     if cells * per_cell != R: raise Bad(f"10: header implies a payload of {cells * per_cell} bytes, R = {R}")
@@ -250,6 +257,9 @@ def texel_summary(h):
         print(f"  level {n} self-shadowing at 0, 15, 30, 60, 90, 180 degrees {[short32(v) for v in row]}; wood weight {short32(h['wood_weight'][n])}")
         for height, r in zip((0, 30, 60, 90), h["self_shadow_by_height"][n]):
             print(f"    with the sun {height} degrees high {[short32(v) for v in r]}")
+        for eye, rows in zip((10, 35, 60), h["self_shadow_by_view"][n] if h["self_shadow_by_view"] else []):
+            for turn, r in zip((0, 90, 180), rows):
+                print(f"    with the eye {eye} degrees high, the sun turned {turn} degrees about its line of sight {[short32(v) for v in r]}")
     print("  channels: " + ", ".join(f"{k['name']}[{k['components']} {k['encoding']} {k['unit']}]" for k in h["channels"]))
     for n, (l, ch) in enumerate(zip(h["levels"], h["data"])):
         print(f"  level {n}: {'x'.join(map(str, l['dims']))} of {l['cell']!r} m; sum density_wood {math.fsum(ch['density_wood']):.10g}, density_foliage {math.fsum(ch['density_foliage']):.10g}")
@@ -339,8 +349,8 @@ def check_golden(h):
         if got != want: bad.append(f"{what}: decoded {got!r}, spec says {want!r}")
     name = os.path.basename(h["path"])
     if name == "conifer-8.texel":
-        eq("size", h["size"], 10698); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("128429bb", "6c0e5c45"))
-        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 5), 1416, 22540, 9246))
+        eq("size", h["size"], 11570); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("2c422493", "ac225c90"))
+        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 6), 2288, 22540, 9246))
         eq("generator", h["generator"], "texel-forest 0.1.0")
         eq("density_model, extinction_scale", (h["density_model"], h["extinction_scale"]), ("Transmittance", 1.0))
         eq("triangles, foliage_triangles", (h["triangles"], h["foliage_triangles"]), (9634, 4698))
@@ -365,8 +375,11 @@ def check_golden(h):
         eq("self_shadow, level 0 (binary32)", K[0], [f32(x) for x in (0, 1.0475224, 1.8260734, 5.1501727, 16, 16)])
         eq("self_shadow, level 3 (binary32)", K[3], [f32(x) for x in (0, 4.913109, 7.972317, 16, 16, 16)])
         KH = h["self_shadow_by_height"][0]
-        eq("self_shadow_by_height, level 0, sun 0 degrees high (binary32)", KH[0], [f32(x) for x in (0, 0.88655186, 2.0547998, 2.7995954, 11.250814, 11.250814)])
-        eq("self_shadow_by_height, level 0, sun 90 degrees high (binary32)", KH[3], [f32(x) for x in (0, 1.1084995, 2.1448748, 9.876696, 16, 16)])
+        eq("self_shadow_by_height, level 0, sun 0 degrees high (binary32)", KH[0], [f32(x) for x in (0, 0.88655186, 2.0547998, 2.7995954, 11.250815, 11.250815)])
+        eq("self_shadow_by_height, level 0, sun 90 degrees high (binary32)", KH[3], [f32(x) for x in (0, 1.1084995, 2.1448748, 9.876697, 16, 16)])
+        KV = h["self_shadow_by_view"][0]
+        eq("self_shadow_by_view, level 0, eye 35 degrees high, sun turned 0 (binary32)", KV[1][0], [f32(x) for x in (0, 1.6706263, 1.8997139, 10.143883, 16, 16)])
+        eq("self_shadow_by_view, level 0, eye 60 degrees high, sun turned 180 (binary32)", KV[2][2], [f32(x) for x in (0, 1.0232471, 1.39004, 2.6821094, 16, 16)])
         eq("wood_weight, levels 0 and 3 (binary32)", [h["wood_weight"][0], h["wood_weight"][3]], [f32(0.32550794), f32(0.27704316)])
         eq("k_0 along y and along the body diagonal (6 decimals)", [round(directional_factor(D[0], w), 6) for w in ((0, 1, 0), (1, 1, 1))], [0.725364, 0.845509])
     elif name == "forest-12.instances":

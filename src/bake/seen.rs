@@ -21,13 +21,18 @@
 //!   correlation, so a volume is too dark near the hot spot.
 //!
 //! Both depend on the angle `g` between the directions to the eye and to the sun, on the
-//! level, and on the sun's height, measured (the fixture conifer, level 0, 90 degrees from
-//! the eye, needs 3.1 with the sun on the horizon and 7.9 with it overhead; one factor pooled
-//! over every height left the lone fixture trees' leaves under a sun 85 degrees high 11-19 %
-//! too sunlit). So each level stores a factor per angle in [`SELF_SHADOW_ANGLES`] and per
-//! height in [`SUN_HEIGHTS`], and one pooled over every height for readers before texel 1.5:
-//! the multiplier on the tree's own extinction along a foliage sample's shadow ray that makes
-//! the mean sun visibility of what the eye sees equal the mesh's.
+//! level, and on where the sun and the eye stand, measured (the fixture conifer, level 0, 90
+//! degrees from the eye, needs 3.1 with the sun on the horizon and 7.9 with it overhead; seen
+//! from 25 degrees up with the sun 20 degrees from the eye, 1.12 with the sun above the eye's
+//! line of sight, 0.56 beside it and 0.78 below it). So each level stores a factor per angle in
+//! [`SELF_SHADOW_ANGLES`] and, since texel 1.6, per eye height in [`EYE_HEIGHTS`] and turn of
+//! the sun about the eye's line of sight in [`SUN_TURNS`]; beside them the rows older readers
+//! use, per sun height in [`SUN_HEIGHTS`] (1.5) and one pooled over every sun (1.2): the
+//! multiplier on the tree's own extinction along a foliage sample's shadow ray that makes the
+//! mean sun visibility of what the eye sees equal the mesh's. Keyed by the sun's height alone,
+//! the lone fixture trees' leaves under a sun 20 degrees above the eye's line of sight were
+//! 15-19 % too sunlit: a height's row pools the suns of every view that stand at that height,
+//! above one eye's line of sight and beside or below another's.
 //!
 //! The measurement. For 12 view directions `v` (elevations 10, 35 and 60 degrees, 4 azimuths)
 //! and each angle, [`SUNS_PER_ANGLE`] sun directions `l` at that angle from `v`, turned about
@@ -38,8 +43,8 @@
 //! On the level, the same ray is marched (midpoint rule, half a cell) and its foliage samples
 //! weighted as the renderer weights them (`T (1 - exp(-sigma dt))` times the foliage's share
 //! of sigma); a point drawn from those weights carries the optical depth towards `l`. Each sun
-//! counts in the pooled fit with weight 1 and in each height's with a tent of the distance
-//! between its height and that one ([`height_weights`]). The factor `k` solves
+//! counts in the pooled fit with weight 1 and in the others with the weights by which the
+//! renderer interpolates between them ([`row_weights`]). The factor `k` solves
 //! `sum w W exp(-k tau) / sum w W = mesh visibility` (within `[0, K_MAX]`).
 
 use glam::{DVec3, Vec3};
@@ -50,7 +55,10 @@ use crate::geom::{Ray, barycentric_point, offset_origin};
 use crate::import::Mesh;
 use crate::mesh_tracer::MeshTracer;
 use crate::rng;
-use crate::volume::{Level, SELF_SHADOW_ANGLES, SOLID_EXTINCTION, SUN_HEIGHTS, SelfShadow, Sparse};
+use crate::volume::{
+    EYE_HEIGHTS, Level, SELF_SHADOW_ANGLES, SOLID_EXTINCTION, SUN_HEIGHTS, SUN_TURNS, SelfShadow,
+    Sparse, SunFromEye, hat,
+};
 
 /// The largest factor a fit may give.
 const K_MAX: f64 = 16.0;
@@ -432,11 +440,24 @@ fn suns(v: DVec3, angle: f64, k: usize) -> Vec<DVec3> {
         .collect()
 }
 
-/// The weight a sun at `height` degrees gives each height of [`SUN_HEIGHTS`]: a tent one
-/// spacing wide either side, so a row's fit pools the suns near its height.
-fn height_weights(height: f64) -> [f64; SUN_HEIGHTS.len()] {
-    let spacing = f64::from(SUN_HEIGHTS[1] - SUN_HEIGHTS[0]);
-    SUN_HEIGHTS.map(|h| (1.0 - (height - f64::from(h)).abs() / spacing).max(0.0))
+/// The weight the sun `l` seen along the view `v` gives each row of a level's fit: 1 for the
+/// pooled row; for each height of [`SUN_HEIGHTS`], a tent one spacing wide either side; for
+/// each eye height and sun turn of the 1.6 rows, the weights by which the renderer
+/// interpolates between them, so that a row's fit pools the suns near it.
+fn row_weights(v: DVec3, l: DVec3) -> [f64; ROWS] {
+    let s = SunFromEye::new(v.as_vec3(), l.as_vec3());
+    let mut w = [0.0; ROWS];
+    w[0] = 1.0;
+    for (w, h) in w[1..].iter_mut().zip(hat(&SUN_HEIGHTS, s.sun_height)) {
+        *w = f64::from(h);
+    }
+    let (eye, turn) = (hat(&EYE_HEIGHTS, s.eye_height), hat(&SUN_TURNS, s.turn));
+    for (e, we) in eye.iter().enumerate() {
+        for (t, wt) in turn.iter().enumerate() {
+            w[BY_VIEW + e * SUN_TURNS.len() + t] = f64::from(we * wt);
+        }
+    }
+    w
 }
 
 /// What one view gives every angle and sun: the foliage its rays see first in the mesh, and per
@@ -446,10 +467,14 @@ struct ViewDraws {
     drawn: Vec<Vec<(f64, DVec3)>>,
 }
 
-/// The rows a fit makes: the pooled one, then one per sun height.
-const ROWS: usize = 1 + SUN_HEIGHTS.len();
+/// The rows a fit makes: the pooled one, one per sun height, then (from [`BY_VIEW`]) one per
+/// eye height and sun turn, the turns running fastest.
+const ROWS: usize = BY_VIEW + EYE_HEIGHTS.len() * SUN_TURNS.len();
+/// The first of the rows by eye height and sun turn.
+const BY_VIEW: usize = 1 + SUN_HEIGHTS.len();
 
-/// Every level's self-shadowing factors (pooled, and per sun height), one per angle of
+/// Every level's self-shadowing factors (pooled, per sun height, per eye height and sun turn),
+/// one per angle of
 /// [`SELF_SHADOW_ANGLES`], with the levels' wood weights deciding which samples are foliage.
 /// Each view's rays, the leaves they meet in the mesh and the points drawn in each level serve
 /// every angle and sun.
@@ -500,8 +525,7 @@ fn self_shadow_factors(
                 Vec::new()
             };
             for l in suns {
-                let mut weights = [1.0; ROWS];
-                weights[1..].copy_from_slice(&height_weights(l.y.asin().to_degrees()));
+                let weights = row_weights(v, l);
                 let s = mesh_seen(tracer, leaves, l);
                 for (row, &w) in weights.iter().enumerate().filter(|(_, w)| **w > 0.0) {
                     seen[row].response += w * s.response;
@@ -524,8 +548,9 @@ fn self_shadow_factors(
                 f[row][a] = if seen[row].response > 0.0 {
                     fit(&points[row], seen[row].lit / seen[row].response) as f32
                 } else if seen[0].response > 0.0 {
-                    // A height no sun came near at this angle (the hot spot's suns stand
-                    // only as high as the views): the pooled factor.
+                    // A height or view no sun came near at this angle (the hot spot's suns
+                    // stand only as high as the views; a low eye's suns below its line of
+                    // sight are under the horizon): the pooled factor.
                     f[0][a]
                 } else if a > 0 {
                     // Where the eye sees no lit foliage, the previous angle's (smooth).
@@ -541,6 +566,9 @@ fn self_shadow_factors(
         .map(|f| SelfShadow {
             pooled: f[0],
             by_height: std::array::from_fn(|h| f[1 + h]),
+            by_view: Some(std::array::from_fn(|e| {
+                std::array::from_fn(|t| f[BY_VIEW + e * SUN_TURNS.len() + t])
+            })),
         })
         .collect()
 }

@@ -11,14 +11,14 @@ use crate::limits::{LimitError, Limits};
 use crate::number::shortest;
 use crate::provenance::SourceFile;
 use crate::volume::{
-    BakeParameters, DensityModel, Level, MaterialPart, PartReason, SUN_HEIGHTS, SelfShadow, Texel,
-    TexelInfo,
+    BakeParameters, ByView, DensityModel, EYE_HEIGHTS, Level, MaterialPart, PartReason,
+    SUN_HEIGHTS, SUN_TURNS, SelfShadow, Texel, TexelInfo,
 };
 
 pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";
 pub const MAJOR: u16 = 1;
 /// Minor version 1 appends the wood pattern and the material table to the header.
-pub const MINOR: u16 = 5;
+pub const MINOR: u16 = 6;
 
 /// Limits a reader enforces before it allocates anything a header asks for.
 const MAX_LEVELS: usize = 16;
@@ -118,6 +118,15 @@ pub(crate) struct HeaderV1_5 {
     /// [`crate::volume::SELF_SHADOW_ANGLES`], one row per sun height of
     /// [`crate::volume::SUN_HEIGHTS`].
     pub(crate) self_shadow_by_height: Vec<[[f32; 6]; SUN_HEIGHTS.len()]>,
+}
+
+/// What minor version 6 appends to the header.
+#[derive(Clone, Debug, PartialEq, Encode, Decode, Default)]
+pub(crate) struct HeaderV1_6 {
+    /// Per level, finest first: the self-shadowing factors at the angles of
+    /// [`crate::volume::SELF_SHADOW_ANGLES`], one row per eye height of
+    /// [`crate::volume::EYE_HEIGHTS`] and sun turn of [`crate::volume::SUN_TURNS`].
+    pub(crate) self_shadow_by_view: Vec<ByView>,
 }
 
 /// Bounds of a wood weight (the bake's fit stays within 1/64 to 64).
@@ -299,6 +308,7 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
         &parts.extension,
         Some(&parts.extension2),
         parts.extension5.as_ref(),
+        parts.extension6.as_ref(),
     )
     .map_err(unwritable)?;
     for level in &texel.levels {
@@ -312,11 +322,15 @@ pub(crate) struct Parts {
     pub(crate) header: Header,
     pub(crate) extension: HeaderV1_1,
     pub(crate) extension2: HeaderV1_2,
-    /// Where some level's self-shadowing depends on the sun's height.
+    /// Where some level's self-shadowing depends on the sun's height (and wherever there is
+    /// an `extension6`, which follows it).
     pub(crate) extension5: Option<HeaderV1_5>,
+    /// Where some level's self-shadowing depends on the eye's height and the sun's turn.
+    pub(crate) extension6: Option<HeaderV1_6>,
     pub(crate) payload: Vec<u8>,
-    /// 5 where the header holds self-shadowing by sun height, else 4 where the payload holds
-    /// the wood's normals, else 3 where it holds solids, else 2.
+    /// 6 where the header holds self-shadowing by eye height and sun turn, else 5 where it
+    /// holds it by sun height, else 4 where the payload holds the wood's normals, else 3 where
+    /// it holds solids, else 2.
     pub(crate) minor: u16,
 }
 
@@ -410,7 +424,22 @@ fn parts(texel: &Texel) -> Parts {
         }
     }
     // A texture whose self-shadowing is one row for every sun height is the file it was
-    // before 1.5, byte for byte.
+    // before 1.5, byte for byte, and one without rows by view the file it was before 1.6.
+    let extension6 = texel
+        .levels
+        .iter()
+        .any(|l| l.self_shadow.by_view.is_some())
+        .then(|| HeaderV1_6 {
+            self_shadow_by_view: texel
+                .levels
+                .iter()
+                .map(|l| {
+                    let s = &l.self_shadow;
+                    s.by_view
+                        .unwrap_or([[s.pooled; SUN_TURNS.len()]; EYE_HEIGHTS.len()])
+                })
+                .collect(),
+        });
     let extension5 = texel
         .levels
         .iter()
@@ -426,7 +455,9 @@ fn parts(texel: &Texel) -> Parts {
         header,
         extension,
         extension2,
-        minor: if extension5.is_some() {
+        minor: if extension6.is_some() {
+            6
+        } else if extension5.is_some() {
             5
         } else if has_wood_normals(texel) {
             4
@@ -436,6 +467,7 @@ fn parts(texel: &Texel) -> Parts {
             2
         },
         extension5,
+        extension6,
         payload,
     }
 }
@@ -447,6 +479,9 @@ fn assemble(parts: &Parts) -> Result<Vec<u8>, ContainerError> {
     header.extend(bincode::encode_to_vec(&parts.extension, header_config()).map_err(too_large)?);
     header.extend(bincode::encode_to_vec(&parts.extension2, header_config()).map_err(too_large)?);
     if let Some(e) = &parts.extension5 {
+        header.extend(bincode::encode_to_vec(e, header_config()).map_err(too_large)?);
+    }
+    if let Some(e) = &parts.extension6 {
         header.extend(bincode::encode_to_vec(e, header_config()).map_err(too_large)?);
     }
     container::write(MAGIC, MAJOR, parts.minor, &header, &parts.payload)
@@ -500,6 +535,7 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
     let extension: HeaderV1_1 = appended(&mut rest, minor >= 1)?.unwrap_or_default();
     let extension2: Option<HeaderV1_2> = appended(&mut rest, minor >= 2)?;
     let extension5: Option<HeaderV1_5> = appended(&mut rest, minor >= 5)?;
+    let extension6: Option<HeaderV1_6> = appended(&mut rest, minor >= 6)?;
     if !rest.is_empty() && minor <= MINOR {
         return Err(TexelError::Header(format!(
             "{} bytes after the header",
@@ -511,6 +547,7 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
         &extension,
         extension2.as_ref(),
         extension5.as_ref(),
+        extension6.as_ref(),
     )?;
     // Files before 1.2 are isotropic and shadow themselves as independent media: every
     // factor 1. Files before 1.5 have one self-shadowing row for every sun height.
@@ -530,6 +567,11 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
     if let Some(e) = extension5 {
         for (s, rows) in fits.self_shadow.iter_mut().zip(e.self_shadow_by_height) {
             s.by_height = rows;
+        }
+    }
+    if let Some(e) = extension6 {
+        for (s, rows) in fits.self_shadow.iter_mut().zip(e.self_shadow_by_view) {
+            s.by_view = Some(rows);
         }
     }
     Ok(Decoded {
@@ -878,6 +920,7 @@ fn validate(
     extension: &HeaderV1_1,
     extension2: Option<&HeaderV1_2>,
     extension5: Option<&HeaderV1_5>,
+    extension6: Option<&HeaderV1_6>,
 ) -> Result<(), TexelError> {
     validate_geometry(h)?;
     validate_channels(h)?;
@@ -887,6 +930,9 @@ fn validate(
     }
     if let Some(e) = extension5 {
         validate_self_shadow_by_height(h, e)?;
+    }
+    if let Some(e) = extension6 {
+        validate_self_shadow_by_view(h, e)?;
     }
     Ok(())
 }
@@ -918,6 +964,27 @@ fn validate_self_shadow_by_height(h: &Header, e: &HeaderV1_5) -> Result<(), Texe
                 return bad(format!(
                     "level {i}'s self-shadowing factors for a sun {height} degrees high {row:?} have one that is not a number within 0 to 64"
                 ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The 1.6 rows: one set per level, every factor within 0 to 64.
+fn validate_self_shadow_by_view(h: &Header, e: &HeaderV1_6) -> Result<(), TexelError> {
+    one_per_level(
+        h,
+        e.self_shadow_by_view.len(),
+        "sets of self-shadowing rows by eye height and sun turn",
+    )?;
+    for (i, rows) in e.self_shadow_by_view.iter().enumerate() {
+        for (rows, eye) in rows.iter().zip(EYE_HEIGHTS) {
+            for (row, turn) in rows.iter().zip(SUN_TURNS) {
+                if !factors_in_range(row) {
+                    return bad(format!(
+                        "level {i}'s self-shadowing factors for an eye {eye} degrees high and a sun turned {turn} degrees from above it {row:?} have one that is not a number within 0 to 64"
+                    ));
+                }
             }
         }
     }
@@ -1351,9 +1418,54 @@ pub(crate) mod tests {
             l.self_shadow = SelfShadow {
                 pooled: row(1),
                 by_height: std::array::from_fn(row),
+                by_view: None,
             };
         }
         t
+    }
+
+    /// `t` (rows by sun height) with rows by eye height and sun turn too, as every bake of a
+    /// tree with foliage has since 1.6.
+    fn with_views(mut t: Texel) -> Texel {
+        for (n, l) in t.levels.iter_mut().enumerate() {
+            l.self_shadow.by_view = Some(std::array::from_fn(|e| {
+                std::array::from_fn(|v| std::array::from_fn(|a| (a + 3 * e + v + n) as f32 * 0.5))
+            }));
+        }
+        t
+    }
+
+    /// Rows by eye height and sun turn make a 1.6 file, read back bit for bit; a 1.5 reader
+    /// (which skips the appended field) reads the rows by sun height alone; rows out of range
+    /// are refused, naming the level, the eye's height and the sun's turn.
+    #[test]
+    fn self_shadowing_by_view_is_written_as_1_6_and_read_back() {
+        let t = with_views(with_heights(sample_texel(3)));
+        let bytes = encode(&t).unwrap();
+        assert_eq!(minor_of(&bytes), 6);
+        assert_eq!(decode(&bytes).unwrap(), t);
+        let old = decode(&older(&bytes, 8 + 4 * 6 * 9 * t.levels.len(), 5)).unwrap();
+        for (l, o) in t.levels.iter().zip(&old.levels) {
+            assert_eq!(o.self_shadow.by_view, None);
+            assert_eq!(o.self_shadow.by_height, l.self_shadow.by_height);
+        }
+        let bad = forge(&t, |p| {
+            if let Some(e) = &mut p.extension6 {
+                e.self_shadow_by_view[2][1][2][0] = f32::NAN;
+            }
+        });
+        let e = decode(&bad).unwrap_err().to_string();
+        assert!(
+            e.contains("level 2") && e.contains("35 degrees high") && e.contains("turned 180"),
+            "{e}"
+        );
+        let short = forge(&t, |p| {
+            if let Some(e) = &mut p.extension6 {
+                e.self_shadow_by_view.pop();
+            }
+        });
+        let e = decode(&short).unwrap_err().to_string();
+        assert!(e.contains("by eye height and sun turn"), "{e}");
     }
 
     /// Rows by sun height make a 1.5 file, read back bit for bit; the pooled row stays where
@@ -1394,7 +1506,7 @@ pub(crate) mod tests {
     #[test]
     fn minor_versions_append_header_fields_that_older_readers_skip() {
         // A file of the newest minor version, whose every header field is present.
-        let t = with_heights(sample_texel(3));
+        let t = with_views(with_heights(sample_texel(3)));
         let bytes = encode(&t).unwrap();
         let p = container::preamble(&bytes).unwrap();
         // The same file with four more header bytes, as a newer minor version would append.

@@ -60,9 +60,13 @@ pub struct LevelSummary {
     /// The factors on the tree's own extinction along a foliage sample's shadow ray, at the
     /// angles of [`crate::volume::SELF_SHADOW_ANGLES`] between eye and sun: pooled over suns
     /// of every height (what readers before texel 1.5 use), and one row per sun height of
-    /// [`crate::volume::SUN_HEIGHTS`] (all the pooled row in files before 1.5).
+    /// [`crate::volume::SUN_HEIGHTS`] (all the pooled row in files before 1.5), and rows by
+    /// the eye's height and the sun's turn about the eye, `[eye height][sun turn]`, of
+    /// [`crate::volume::EYE_HEIGHTS`] and [`crate::volume::SUN_TURNS`] (texel 1.6; `None`
+    /// before, when a renderer reads the rows by sun height).
     pub self_shadow: [f32; 6],
     pub self_shadow_by_sun_height: [[f32; 6]; crate::volume::SUN_HEIGHTS.len()],
+    pub self_shadow_by_view: Option<crate::volume::ByView>,
     /// The weight on the wood's extinction in choosing which part scatters.
     pub wood_weight: f32,
     /// Where the level draws solids (texel 1.3): the share of its cells whose centre is
@@ -172,6 +176,7 @@ fn level_summary(l: &Level) -> LevelSummary {
         directional: l.directional,
         self_shadow: l.self_shadow.pooled,
         self_shadow_by_sun_height: l.self_shadow.by_height,
+        self_shadow_by_view: l.self_shadow.by_view,
         wood_weight: l.wood_weight,
         factor_axes: [Vec3::X, Vec3::Y, Vec3::Z].map(|w| l.directional_factor(w)),
         solid: l.has_solid().then(|| {
@@ -305,7 +310,7 @@ fn write_grid(o: &mut String, s: &Summary) {
         .collect();
     let _ = writeln!(
         o,
-        "self-shadow   own-extinction factor of a leaf's shadow ray at {} degrees from the eye, per level: pooled over the sun's heights, then per height where they differ",
+        "self-shadow   own-extinction factor of a leaf's shadow ray at {} degrees from the eye, per level: pooled over every sun, then per sun height where they differ (what 1.5 readers use), then per eye height and turn of the sun about the line of sight (1.6; what texel draws with where present)",
         angles.join("/")
     );
     let row = |r: &[f32; 6]| {
@@ -331,6 +336,21 @@ fn write_grid(o: &mut String, s: &Summary) {
                 .zip(crate::volume::SUN_HEIGHTS)
             {
                 let _ = writeln!(o, "                sun {h:>2} degrees high: {}", row(r));
+            }
+        }
+        for (rows, e) in l
+            .self_shadow_by_view
+            .iter()
+            .flatten()
+            .zip(crate::volume::EYE_HEIGHTS)
+        {
+            // The turns of SUN_TURNS: 0, 90 and 180 degrees.
+            for (r, turn) in rows.iter().zip(["above", "beside", "below"]) {
+                let _ = writeln!(
+                    o,
+                    "                eye {e:>2} degrees high, sun {turn:<6} its line of sight: {}",
+                    row(r)
+                );
             }
         }
     }

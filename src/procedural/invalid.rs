@@ -66,12 +66,13 @@ fn small_texel() -> Texel {
         levels: mip_chain(level, 1.0)
             .into_iter()
             .map(|mut l| {
-                // Rows by the sun's height, as every bake of a tree with foliage has: the
-                // corpus is of the newest minor version.
+                // Rows by the sun's height and by the eye's height and sun's turn, as every
+                // bake of a tree with foliage has: the corpus is of the newest minor version.
                 let row = |h: usize| std::array::from_fn(|a| (a + h) as f32 * 0.5);
                 l.self_shadow = SelfShadow {
                     pooled: row(1),
                     by_height: std::array::from_fn(row),
+                    by_view: Some(std::array::from_fn(|e| std::array::from_fn(|t| row(e + t)))),
                 };
                 l
             })
@@ -304,6 +305,9 @@ fn texel_level_chain_files(base: &Texel, add: &mut Add) {
                 e.self_shadow_by_height
                     .resize(n, e.self_shadow_by_height[0]);
             }
+            if let Some(e) = &mut p.extension6 {
+                e.self_shadow_by_view.resize(n, e.self_shadow_by_view[0]);
+            }
         }),
         "the texture's cell count (all levels) is 30859767, over the limit of 4194304",
     );
@@ -459,6 +463,24 @@ fn texel_directional_files(base: &Texel, add: &mut Add) {
             }
         }),
         "for a sun 90 degrees high",
+    );
+    add(
+        "self-shadow-by-view-count",
+        forge(&|p| {
+            if let Some(e) = &mut p.extension6 {
+                e.self_shadow_by_view.pop();
+            }
+        }),
+        "self-shadowing rows by eye height and sun turn for",
+    );
+    add(
+        "self-shadow-by-view-huge",
+        forge(&|p| {
+            if let Some(e) = &mut p.extension6 {
+                e.self_shadow_by_view[0][2][0][3] = 65.0;
+            }
+        }),
+        "for an eye 60 degrees high and a sun turned 0 degrees",
     );
 }
 

@@ -45,7 +45,7 @@ use super::sunlight::{Caster, MAX_OWN, OwnTree, Strata, roulette, sun_light};
 use super::walk::{Active, March, Walk, floor, segment_end};
 use crate::geom::{Ray, TriangleHit};
 use crate::rng::{self, purpose};
-use crate::volume::Axes;
+use crate::volume::{Axes, SunFromEye};
 
 /// Radiance along the ray from the eye (the renderer frame's origin) in direction `dir`, every
 /// tree drawn from its texture; `spread` is the angle the sample's share of its pixel subtends
@@ -413,8 +413,7 @@ fn scatter(
             };
             let mut own = [OwnTree::default(); MAX_OWN];
             let mut n = 0;
-            let cos_g = (-dir).dot(sun.direction);
-            let sun_height = sun.height();
+            let sun_from_eye = SunFromEye::new(-dir, sun.direction);
             for a in active.iter().take(MAX_OWN) {
                 let level = &scene.texel_of(a.instance).levels[a.level];
                 // A tree with solids: what of them its level set leaves out (a rim thinner
@@ -429,7 +428,7 @@ fn scatter(
                     instance: a.instance,
                     level: a.level,
                     factor: if foliage_scatters {
-                        level.self_shadow.at(cos_g, sun_height)
+                        level.self_shadow.at(&sun_from_eye)
                     } else {
                         1.0
                     },

@@ -85,11 +85,6 @@ impl Sun {
             irradiance,
         }
     }
-
-    /// Degrees above the horizontal plane (a tree turned about +Y sees the same height).
-    pub fn height(&self) -> f32 {
-        self.direction.y.clamp(-1.0, 1.0).asin().to_degrees()
-    }
 }
 
 /// The paper's shading constants (equation 3): S = albedo (I (kd cos theta + ks cos^n alpha)
