@@ -353,6 +353,19 @@ impl LoneTree {
     /// The frame's sum per channel (R, G, B, A) by `method` at `spp`, the texture read
     /// `lod_bias` levels coarser than the finest.
     fn sums(&self, light: Light, method: Method, spp: u32, lod_bias: f32) -> [f64; 4] {
+        self.sums_beside(light, method, spp, lod_bias, &[])
+    }
+
+    /// [`LoneTree::sums`] with copies of the tree (turned a quarter) standing `neighbours`
+    /// crown widths from it towards the sun's azimuth.
+    fn sums_beside(
+        &self,
+        light: Light,
+        method: Method,
+        spp: u32,
+        lod_bias: f32,
+        neighbours: &[f64],
+    ) -> [f64; 4] {
         use texel_forest::render::scene::TreeMesh;
         use texel_forest::render::{
             Camera, Lighting, Look, March, Placed, RenderSettings, Scene, Sun, render,
@@ -360,6 +373,7 @@ impl LoneTree {
         let info = &self.texel.info;
         let height = info.model_max[1] - info.model_min[1];
         let centre = DVec3::new(0.0, 0.5 * height, 0.0);
+        let width = info.model_max[0] - info.model_min[0];
         let to_eye = light.eye.normalize();
         let across = to_eye.cross(DVec3::Y).normalize();
         let to_sun = glam::DQuat::from_axis_angle(to_eye, light.turn.to_radians())
@@ -374,12 +388,15 @@ impl LoneTree {
                 foliage: 1.0,
                 foliage_albedo: glam::Vec3::new(0.05, 0.12, 0.04),
             }],
-            &[Placed {
-                look: 0,
-                position: DVec3::ZERO,
-                rotation: 0.0,
-                scale: 1.0,
-            }],
+            &std::iter::once((0.0, 0.0))
+                .chain(neighbours.iter().map(|&d| (d, 0.25)))
+                .map(|(d, rotation)| Placed {
+                    look: 0,
+                    position: DVec3::new(to_sun.x, 0.0, to_sun.z).normalize_or_zero() * d * width,
+                    rotation,
+                    scale: 1.0,
+                })
+                .collect::<Vec<_>>(),
             None,
             Lighting {
                 sun: Sun {
@@ -541,6 +558,60 @@ fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
     let mean = distances.iter().sum::<f64>() / distances.len() as f64;
     println!("mean distance from the mesh's sunlit share: {mean:.3}");
     assert!(mean < 0.06, "{mean}");
+}
+
+/// A neighbour's shadow on a tree, through the textures against through the meshes: the
+/// share of the leaves' light the sun reaches (as in the test above, black wood, no ambient or
+/// highlight) with a second copy of the tree, turned a quarter, 0.7 crown widths from it
+/// towards the sun, both in the frame, with exact shadow rays. The renderer crosses the
+/// neighbour as an independent medium, at factor 1. Measured: with the sun 20 degrees from the
+/// demo's eye, turned 60 (as the demo's sun is), the pair reads 1.059 (conifer) and 1.005
+/// (broadleaf) of the meshes' share, the tree alone 1.028 and 1.018; with the sun 60 degrees
+/// from it, beside the line of sight, 0.929 and 0.843, alone 0.960 and 0.947. So away from
+/// the hot spot the pair lets 3-11 % less sun through than one tree does, against its mesh,
+/// as the fixture forest does under such suns (0.969; README, *by the eye's height and the
+/// sun's turn*): the next error to take apart.
+#[test]
+fn a_neighbours_shadow_lets_through_as_much_sun_as_its_meshs() {
+    let shading = texel_forest::render::Shading {
+        ks: 0.0,
+        ambient: 0.0,
+        ..texel_forest::render::Shading::default()
+    };
+    let mut distances = Vec::new();
+    for tree in ["trees/conifer.glb", "trees/broadleaf.gltf"] {
+        let tree = LoneTree::new(tree).with_black_wood();
+        for (g, turn) in [(20.0, 60.0), (60.0, 90.0)] {
+            let light = |shadows| Light {
+                eye: FROM_SSW,
+                g,
+                turn,
+                shadows,
+                shading,
+            };
+            // The sunlit share of the frame's green, with the neighbour and without.
+            let share = |method, spp| {
+                let green = |shadows, neighbours: &[f64]| {
+                    tree.sums_beside(light(shadows), method, spp, 0.0, neighbours)[1]
+                };
+                [
+                    green(true, &[0.7]) / green(false, &[0.7]),
+                    green(true, &[]) / green(false, &[]),
+                ]
+            };
+            let (texel, mesh) = (share(Method::Texel, 16), share(Method::Mesh, 64));
+            let (pair, alone) = (texel[0] / mesh[0], texel[1] / mesh[1]);
+            println!(
+                "{:<22} sun {g:>2} degrees from the eye, turned {turn:>2}: sunlit share texel / mesh {pair:.3} with the neighbour, {alone:.3} alone",
+                tree.name
+            );
+            assert!((pair - 1.0).abs() < 0.2, "{}: {pair}", tree.name);
+            distances.push((pair - 1.0).abs());
+        }
+    }
+    let mean = distances.iter().sum::<f64>() / distances.len() as f64;
+    println!("mean distance from the meshes' sunlit share: {mean:.3}");
+    assert!(mean < 0.1, "{mean}");
 }
 
 /// Two trees whose crowns overlap, as a forest's neighbours do. The renderer sums their
