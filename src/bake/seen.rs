@@ -441,9 +441,9 @@ fn suns(v: DVec3, angle: f64, k: usize) -> Vec<DVec3> {
 }
 
 /// The weight the sun `l` seen along the view `v` gives each row of a level's fit: 1 for the
-/// pooled row; for each height of [`SUN_HEIGHTS`], a tent one spacing wide either side; for
-/// each eye height and sun turn of the 1.6 rows, the weights by which the renderer
-/// interpolates between them, so that a row's fit pools the suns near it.
+/// pooled row, and for the rows by sun height and by eye height and sun turn the weights by
+/// which the renderer interpolates between them (for a sun above the horizon, a tent one
+/// spacing wide either side of each node), so that a row's fit pools the suns near it.
 fn row_weights(v: DVec3, l: DVec3) -> [f64; ROWS] {
     let s = SunFromEye::new(v.as_vec3(), l.as_vec3());
     let mut w = [0.0; ROWS];
@@ -474,8 +474,8 @@ const ROWS: usize = BY_VIEW + EYE_HEIGHTS.len() * SUN_TURNS.len();
 const BY_VIEW: usize = 1 + SUN_HEIGHTS.len();
 
 /// Every level's self-shadowing factors (pooled, per sun height, per eye height and sun turn),
-/// one per angle of
-/// [`SELF_SHADOW_ANGLES`], with the levels' wood weights deciding which samples are foliage.
+/// one per angle of [`SELF_SHADOW_ANGLES`], with the levels' wood weights deciding which
+/// samples are foliage.
 /// Each view's rays, the leaves they meet in the mesh and the points drawn in each level serve
 /// every angle and sun.
 fn self_shadow_factors(

@@ -17,7 +17,8 @@ use crate::volume::{
 
 pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";
 pub const MAJOR: u16 = 1;
-/// Minor version 1 appends the wood pattern and the material table to the header.
+/// The newest minor version, which this writes where a texture needs it and reads with every
+/// older one (`formats/texel.md`, *Versions*).
 pub const MINOR: u16 = 6;
 
 /// Limits a reader enforces before it allocates anything a header asks for.
@@ -550,7 +551,8 @@ fn decode_header(bytes: &[u8], minor: u16) -> Result<Decoded, TexelError> {
         extension6.as_ref(),
     )?;
     // Files before 1.2 are isotropic and shadow themselves as independent media: every
-    // factor 1. Files before 1.5 have one self-shadowing row for every sun height.
+    // factor 1. Files before 1.5 have one self-shadowing row for every sun height, and files
+    // before 1.6 no rows by view (a renderer reads theirs by the sun's height).
     let n = header.levels.len();
     let mut fits = extension2.map_or_else(
         || LevelFits {
