@@ -312,6 +312,16 @@ struct Light {
     shading: texel_forest::render::Shading,
 }
 
+/// The paper's shading without the highlight and the ambient term: only the sun's Lambert
+/// term, so that shadowed over unshadowed light is the share the sun reaches.
+fn sunlit_lambert_only() -> texel_forest::render::Shading {
+    texel_forest::render::Shading {
+        ks: 0.0,
+        ambient: 0.0,
+        ..texel_forest::render::Shading::default()
+    }
+}
+
 /// The demo's view: from the south-south-west, 25 degrees up.
 const FROM_SSW: DVec3 = DVec3::new(-0.35, 0.42, 0.84);
 /// A higher eye from another side, 51 degrees up: between the bake's views (10, 35 and 60).
@@ -525,11 +535,7 @@ fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
 /// conifer's coarse level under a sun over the top of it (1.42 in 1.5).
 #[test]
 fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
-    let shading = texel_forest::render::Shading {
-        ks: 0.0,
-        ambient: 0.0,
-        ..texel_forest::render::Shading::default()
-    };
+    let shading = sunlit_lambert_only();
     // The demo's eye with the sun above and beside its line of sight, and a higher eye with
     // the sun at turns between the table's.
     let views = [
@@ -587,11 +593,7 @@ fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
 /// broadleaf 0.98 / 1.00 / 1.00 and 0.84 / 0.89 / 0.92.)
 #[test]
 fn a_neighbours_shadow_lets_through_as_much_sun_as_its_meshs() {
-    let shading = texel_forest::render::Shading {
-        ks: 0.0,
-        ambient: 0.0,
-        ..texel_forest::render::Shading::default()
-    };
+    let shading = sunlit_lambert_only();
     let mut distances = Vec::new();
     for tree in ["trees/conifer.glb", "trees/broadleaf.gltf"] {
         let tree = LoneTree::new(tree).with_black_wood();
