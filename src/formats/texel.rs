@@ -955,39 +955,50 @@ fn factors_in_range(row: &[f32; 6]) -> bool {
 
 /// The 1.5 rows: one set per level, every factor within 0 to 64.
 fn validate_self_shadow_by_height(h: &Header, e: &HeaderV1_5) -> Result<(), TexelError> {
-    one_per_level(
+    let sets = &e.self_shadow_by_height;
+    validate_row_sets(
         h,
-        e.self_shadow_by_height.len(),
-        "sets of self-shadowing rows by sun height",
-    )?;
-    for (i, rows) in e.self_shadow_by_height.iter().enumerate() {
-        for (row, height) in rows.iter().zip(SUN_HEIGHTS) {
-            if !factors_in_range(row) {
-                return bad(format!(
-                    "level {i}'s self-shadowing factors for a sun {height} degrees high {row:?} have one that is not a number within 0 to 64"
-                ));
-            }
-        }
-    }
-    Ok(())
+        sets.len(),
+        "sun height",
+        sets.iter().map(|rows| rows.as_slice()),
+        |j| format!("a sun {} degrees high", SUN_HEIGHTS[j]),
+    )
 }
 
 /// The 1.6 rows: one set per level, every factor within 0 to 64.
 fn validate_self_shadow_by_view(h: &Header, e: &HeaderV1_6) -> Result<(), TexelError> {
-    one_per_level(
+    let sets = &e.self_shadow_by_view;
+    validate_row_sets(
         h,
-        e.self_shadow_by_view.len(),
-        "sets of self-shadowing rows by eye height and sun turn",
-    )?;
-    for (i, rows) in e.self_shadow_by_view.iter().enumerate() {
-        for (rows, eye) in rows.iter().zip(EYE_HEIGHTS) {
-            for (row, turn) in rows.iter().zip(SUN_TURNS) {
-                if !factors_in_range(row) {
-                    return bad(format!(
-                        "level {i}'s self-shadowing factors for an eye {eye} degrees high and a sun turned {turn} degrees from above it {row:?} have one that is not a number within 0 to 64"
-                    ));
-                }
-            }
+        sets.len(),
+        "eye height and sun turn",
+        sets.iter().map(|rows| rows.as_flattened()),
+        |j| {
+            let (eye, turn) = (
+                EYE_HEIGHTS[j / SUN_TURNS.len()],
+                SUN_TURNS[j % SUN_TURNS.len()],
+            );
+            format!("an eye {eye} degrees high and a sun turned {turn} degrees from above it")
+        },
+    )
+}
+
+/// Per-level sets of self-shadowing rows (`what` they are by): one set per level, every
+/// factor within 0 to 64; a refusal names the level and, by `label`, the row's place in its set.
+fn validate_row_sets<'a>(
+    h: &Header,
+    count: usize,
+    what: &str,
+    sets: impl Iterator<Item = &'a [[f32; 6]]>,
+    label: impl Fn(usize) -> String,
+) -> Result<(), TexelError> {
+    one_per_level(h, count, &format!("sets of self-shadowing rows by {what}"))?;
+    for (i, rows) in sets.enumerate() {
+        if let Some((j, row)) = rows.iter().enumerate().find(|(_, r)| !factors_in_range(r)) {
+            return bad(format!(
+                "level {i}'s self-shadowing factors for {} {row:?} have one that is not a number within 0 to 64",
+                label(j)
+            ));
         }
     }
     Ok(())
@@ -1412,6 +1423,12 @@ pub(crate) mod tests {
         assert!(e.contains("payload"), "{e}");
     }
 
+    /// What the reader says of `t`'s parts with `edit` applied, forged without the writer's
+    /// checks.
+    fn refusal(t: &Texel, edit: impl FnOnce(&mut Parts)) -> String {
+        decode(&forge(t, edit)).unwrap_err().to_string()
+    }
+
     /// `t` with self-shadowing rows that differ by the sun's height, as every bake of a tree
     /// with foliage has since 1.5.
     fn with_heights(mut t: Texel) -> Texel {
@@ -1451,22 +1468,20 @@ pub(crate) mod tests {
             assert_eq!(o.self_shadow.by_view, None);
             assert_eq!(o.self_shadow.by_height, l.self_shadow.by_height);
         }
-        let bad = forge(&t, |p| {
+        let e = refusal(&t, |p| {
             if let Some(e) = &mut p.extension6 {
                 e.self_shadow_by_view[2][1][2][0] = f32::NAN;
             }
         });
-        let e = decode(&bad).unwrap_err().to_string();
         assert!(
             e.contains("level 2") && e.contains("35 degrees high") && e.contains("turned 180"),
             "{e}"
         );
-        let short = forge(&t, |p| {
+        let e = refusal(&t, |p| {
             if let Some(e) = &mut p.extension6 {
                 e.self_shadow_by_view.pop();
             }
         });
-        let e = decode(&short).unwrap_err().to_string();
         assert!(e.contains("by eye height and sun turn"), "{e}");
     }
 
@@ -1485,22 +1500,20 @@ pub(crate) mod tests {
         for (l, o) in t.levels.iter().zip(&old.levels) {
             assert_eq!(o.self_shadow, SelfShadow::uniform(l.self_shadow.pooled));
         }
-        let bad = forge(&t, |p| {
+        let e = refusal(&t, |p| {
             if let Some(e) = &mut p.extension5 {
                 e.self_shadow_by_height[1][2][3] = 65.0;
             }
         });
-        let e = decode(&bad).unwrap_err().to_string();
         assert!(
             e.contains("level 1") && e.contains("60 degrees high"),
             "{e}"
         );
-        let short = forge(&t, |p| {
+        let e = refusal(&t, |p| {
             if let Some(e) = &mut p.extension5 {
                 e.self_shadow_by_height.pop();
             }
         });
-        let e = decode(&short).unwrap_err().to_string();
         assert!(e.contains("by sun height"), "{e}");
         assert_eq!(minor_of(&encode(&sample_texel(3)).unwrap()), 2);
     }
