@@ -955,24 +955,20 @@ fn factors_in_range(row: &[f32; 6]) -> bool {
 
 /// The 1.5 rows: one set per level, every factor within 0 to 64.
 fn validate_self_shadow_by_height(h: &Header, e: &HeaderV1_5) -> Result<(), TexelError> {
-    let sets = &e.self_shadow_by_height;
     validate_row_sets(
         h,
-        sets.len(),
         "sun height",
-        sets.iter().map(|rows| rows.as_slice()),
+        e.self_shadow_by_height.iter().map(|rows| rows.as_slice()),
         |j| format!("a sun {} degrees high", SUN_HEIGHTS[j]),
     )
 }
 
 /// The 1.6 rows: one set per level, every factor within 0 to 64.
 fn validate_self_shadow_by_view(h: &Header, e: &HeaderV1_6) -> Result<(), TexelError> {
-    let sets = &e.self_shadow_by_view;
     validate_row_sets(
         h,
-        sets.len(),
         "eye height and sun turn",
-        sets.iter().map(|rows| rows.as_flattened()),
+        e.self_shadow_by_view.iter().map(|rows| rows.as_flattened()),
         |j| {
             let (eye, turn) = (
                 EYE_HEIGHTS[j / SUN_TURNS.len()],
@@ -987,12 +983,15 @@ fn validate_self_shadow_by_view(h: &Header, e: &HeaderV1_6) -> Result<(), TexelE
 /// factor within 0 to 64; a refusal names the level and, by `label`, the row's place in its set.
 fn validate_row_sets<'a>(
     h: &Header,
-    count: usize,
     what: &str,
-    sets: impl Iterator<Item = &'a [[f32; 6]]>,
+    sets: impl ExactSizeIterator<Item = &'a [[f32; 6]]>,
     label: impl Fn(usize) -> String,
 ) -> Result<(), TexelError> {
-    one_per_level(h, count, &format!("sets of self-shadowing rows by {what}"))?;
+    one_per_level(
+        h,
+        sets.len(),
+        &format!("sets of self-shadowing rows by {what}"),
+    )?;
     for (i, rows) in sets.enumerate() {
         if let Some((j, row)) = rows.iter().enumerate().find(|(_, r)| !factors_in_range(r)) {
             return bad(format!(
