@@ -239,7 +239,7 @@ mod tests {
     /// facing every way, lying flat and standing upright, lit from the eye, the side and
     /// above.
     #[test]
-    fn the_even_grid_gives_the_response() {
+    fn the_even_lattice_gives_the_response() {
         let v = Vec3::new(0.3, 0.8, -0.52).normalize();
         let (e1, e2) = v.any_orthonormal_pair();
         let upright = [0.5, 0.0, 0.5, 0.0, 0.0, 0.0];
