@@ -593,19 +593,16 @@ fn self_shadow_factors(
                     seen[row].response += w * s.response;
                     seen[row].lit += w * s.lit;
                 }
+                let sun = l.as_vec3();
                 for (n, level) in levels.iter().enumerate() {
-                    let factor = scale * f64::from(level.directional_factor(l.as_vec3()));
-                    let sun = l.as_vec3();
+                    let factor = scale * f64::from(level.directional_factor(sun));
+                    // A point whose leaves all face away from the sun weighs nothing: its
+                    // shadow is not marched, nor kept.
                     let depths: Vec<(f64, f64)> = drawn[n]
                         .par_iter()
-                        .map(|d| {
+                        .filter_map(|d| {
                             let w = d.weight * d.response(sun);
-                            let tau = if w > 0.0 {
-                                depth_from(level, origin, d.p, l, factor)
-                            } else {
-                                0.0
-                            };
-                            (w, tau)
+                            (w > 0.0).then(|| (w, depth_from(level, origin, d.p, l, factor)))
                         })
                         .collect();
                     for (row, &w) in weights.iter().enumerate().filter(|(_, w)| **w > 0.0) {
