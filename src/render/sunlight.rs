@@ -100,7 +100,7 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                             );
                         }
                     }
-                    Some(o) => depth += o.factor * scene.sun_depth.depth(scene, i, o.level, &ray),
+                    Some(o) => depth = near_then_cached(scene, &ray, o, (depth, opaque)),
                     None => {
                         let level = level_for(scene, i, footprint, lod_bias);
                         depth += scene.sun_depth.depth(scene, i, level, &ray);
@@ -143,6 +143,60 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
             (depth > opaque).then_some(0.0)
         });
     if depth > opaque { 0.0 } else { (-depth).exp() }
+}
+
+/// Cells of its own tree a cached shadow ray marches before it reads the tree's grid.
+///
+/// What the eye sees of a tree is what its own leaves leave open towards the eye, and with
+/// the sun near the eye the same gaps let the sun in: a sample's depth towards the sun is
+/// less than that of the points around it, over a few cells along its shadow ray. The grid's
+/// lookup mixes four columns a cell apart, and so reads a seen leaf's depth as deep as its
+/// neighbours'. Measured at the samples a view draws (CommonTree_1, level 0, the demo's eye,
+/// the sun 20 degrees from it; against a fine march): the grid read the mean depth 18 % deep
+/// and the transmittance (factor 0.5) 9 % dark; marching the first 1 / 2 / 3 cells, 6 / 2 /
+/// 0.5 % dark; the fixture conifer 2.2 % dark, 0.1 % marching 3 (README, *The own tree's
+/// shadow near the leaf, marched*). Beyond, the correlation is gone and the grid's
+/// interpolation has no bias to speak of.
+const NEAR_CELLS: f32 = 3.0;
+
+/// `depth` plus the optical depth of the tree `o` the ray's sample lies in, cached: its first
+/// [`NEAR_CELLS`] cells marched at `o`'s level and factor, the rest read from its grid.
+fn near_then_cached(scene: &Scene, ray: &Ray, o: &OwnTree, (depth, opaque): (f32, f32)) -> f32 {
+    let i = o.instance;
+    let local = scene.instances.get(i).local_ray(ray);
+    let Some((enter, exit)) = scene.instances.local_interval(i, &local, f32::INFINITY) else {
+        return depth;
+    };
+    let a = own_active(scene, i, &local, exit, o);
+    let near = (enter + NEAR_CELLS * a.step).min(exit);
+    let depth = depth + midpoints(scene, &a, (enter, near));
+    if near >= exit || depth > opaque {
+        return depth;
+    }
+    let beyond = Ray {
+        origin: ray.origin + ray.dir * near,
+        dir: ray.dir,
+    };
+    depth + o.factor * scene.sun_depth.depth(scene, i, o.level, &beyond)
+}
+
+/// The optical depth of the tree `a` between `enter` and `exit` along the ray by the midpoint
+/// rule, a sample a cell. The near stretch is so marched rather than jittered, as the
+/// self-shadowing fit marches it (`bake::seen`): it starts at a random sample already, and
+/// jittered its noise raised the fixture forest's far view's error at 1 spp by 0.9 % over no
+/// march at all, where the midpoints raise it by 0.5 % (two samples a cell, 0.3 %).
+fn midpoints(scene: &Scene, a: &Active, (enter, exit): (f32, f32)) -> f32 {
+    let look = &scene.looks[scene.instances.get(a.instance).look as usize];
+    let level = &scene.texels[look.texel].levels[a.level];
+    let stencils = &scene.occupancy[look.texel][a.level].stencils;
+    let samples = ((exit - enter) / a.step).ceil().max(1.0);
+    let h = (exit - enter) / samples;
+    (0..samples as usize)
+        .map(|s| {
+            let d = stencils.density_at(level, a.c0 + a.dc * (enter + (s as f32 + 0.5) * h));
+            a.extinction(d[0] + look.foliage * d[1]) * h
+        })
+        .sum()
 }
 
 /// A tree the shadow ray's sample lies in, at its level, its extinction times its

@@ -62,7 +62,8 @@ impl Default for March {
 /// How a shadow ray finds its optical depth through the trees' textures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShadowRays {
-    /// One lookup per tree in its grid of depths towards the sun (`render::sun_depth`).
+    /// One lookup per tree in its grid of depths towards the sun (`render::sun_depth`); the
+    /// tree the sample lies in marched for its first few cells, then looked up.
     Cached,
     /// A jittered march through every tree, as a view ray marches: unbiased, for references.
     Exact,
