@@ -11,6 +11,9 @@ pub mod purpose {
     pub const BAKE_BLEND: u64 = 0x626c_656e_6473;
     /// Whether an alpha-blended surface stops a ray of the directional calibration.
     pub const CALIBRATION: u64 = 0x0063_616c_6962;
+    /// Where the mesh's rays of the density fit fall in their squares, and whether an
+    /// alpha-blended surface stops them.
+    pub const REFINE: u64 = 0x7265_6669_6e65;
     /// Which foliage samples of a self-shadowing view ray carry its depth towards the sun.
     pub const SELF_SHADOW: u64 = 0x7365_6c66;
     // Placement.

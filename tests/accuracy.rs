@@ -18,12 +18,15 @@ struct Measured {
     /// texture, directional extinction included (as the renderer sees it).
     axis: [f64; 3],
     /// Per-column RMSE of coverage (column sums against rays through each column), worst axis.
+    /// The cells' sums along a column are what the axis scans fit; since level 0 is fitted to
+    /// rays read trilinearly (`bake::refine`) they are no longer the column's mean (conifer
+    /// 0.076 -> 0.143), and `view_rmse` is the measure of what a renderer shows.
     column_rmse: f64,
     /// Mean relative coverage error over random views through the trilinear texture.
     view_bias: f64,
     /// Per-pixel (one cell) coverage RMSE over the same random views, jittered rays through
     /// the trilinear texture against the mesh's: how sharp the crown's light and shade are
-    /// (fixtures 0.18, 0.19, 0.16; the real trees 0.06-0.15).
+    /// (fixtures 0.17, 0.18, 0.15; the real trees 0.06-0.12).
     view_rmse: f64,
 }
 
@@ -78,15 +81,24 @@ fn assert_coverage(name: &str, m: &Measured, axis_tolerance: f64) {
     assert!(m.view_rmse < 0.2, "{name}: view rmse {}", m.view_rmse);
 }
 
+/// The coverage targets on the fixtures, and how sharp their crowns are: per cell-sized pixel
+/// over 12 random views, the coverage RMSE against the mesh's averages 0.168 over the three
+/// (conifer 0.168, broadleaf 0.181, bare 0.154); 0.176 before level 0 was fitted ray by ray
+/// (`bake::refine`: 0.181, 0.191, 0.157), whose interpolated fringe blocked what the mesh
+/// does not. Over the real trees 0.106 -> 0.097.
 #[test]
 fn the_texture_casts_the_mesh_silhouette_along_the_axes_and_random_views_for_the_fixtures() {
+    let mut rmse = 0.0;
     for tree in FIXTURE_TREES {
         let model = import::load(&fixture(tree)).unwrap();
         let texel = bake::bake(&model.mesh, &BakeSettings::default()).unwrap();
         let m = measure(&texel, &model.mesh, 12);
         report(tree, &m);
         assert_coverage(tree, &m, 0.04);
+        rmse += m.view_rmse / FIXTURE_TREES.len() as f64;
     }
+    println!("mean per-pixel coverage rmse over random views: {rmse:.4}");
+    assert!(rmse < 0.172, "{rmse}");
 }
 
 #[test]
@@ -497,7 +509,9 @@ fn tree_radiance_ratio(tree: &LoneTree, light: Light, lod_bias: f32) -> [f64; 4]
 /// of the leaves the sun reaches (next test) and the unshadowed leaves' light (0.87 to 0.93 of
 /// the mesh's for the conifer at 60 degrees). The errors had cancelled. With texel 1.6's rows
 /// by the eye's height and the sun's turn, 1.010 and 0.962 (level 2: 1.062 and 0.945); with
-/// stop 54's fit, 1.007 and 0.957 (1.055 and 0.935).
+/// stop 54's fit, 1.007 and 0.957 (1.055 and 0.935); with level 0 fitted ray by ray
+/// (`bake::refine`, stop 55), 1.002 and 0.962 (1.048 and 0.930), the bare tree at 60 degrees
+/// 1.009 (1.103).
 #[test]
 fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
     for tree in [
@@ -547,10 +561,11 @@ fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
 /// degrees) and turned 45 and 135 degrees: 40 cases. Measured: mean distance from the mesh's
 /// share 0.037 over the first 16 (0.086 by the sun's height alone, texel 1.5; 0.113 with one
 /// row for every sun, 1.2) and 0.055 over the other 24 (1.5: 0.082); 0.034 over the 40 since
-/// stop 54's fit (0.048 before). The largest, 1.24, is the conifer's coarse level under a sun
-/// over the top of it (1.36 before stop 54, 1.42 in 1.5). And from a low eye (10 degrees up,
+/// stop 54's fit (0.048 before), 0.031 since level 0 is fitted ray by ray (`bake::refine`,
+/// stop 55). The largest, 1.22, is the conifer's coarse level under a sun over the top of it
+/// (1.24 before stop 55, 1.36 before stop 54, 1.42 in 1.5). And from a low eye (10 degrees up,
 /// the bake's lowest views' height, between their azimuths) with the sun turned 45 and 90
-/// degrees, apart: 0.036 over 16 cases (0.042 before stop 54).
+/// degrees, apart: 0.036 over 16 cases (0.042 before stop 54; the same before stop 55).
 #[test]
 fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
     let shading = sunlit_lambert_only();
@@ -601,7 +616,7 @@ fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
     }
     let mean = distances.iter().sum::<f64>() / distances.len() as f64;
     println!("mean distance from the mesh's sunlit share: {mean:.3}");
-    assert!(mean < 0.06, "{mean}");
+    assert!(mean < 0.05, "{mean}");
     let low = low.iter().sum::<f64>() / low.len() as f64;
     println!("from the low eye: {low:.3}");
     assert!(low < 0.06, "{low}");
@@ -674,12 +689,14 @@ fn cached_shadow_rays_let_through_as_much_sun_as_the_exact_march() {
 /// the sun, whose leaves are black (it hides and shadows the tree, and gives no light), with
 /// exact shadow rays. The renderer crosses the neighbour as an independent medium (factor
 /// one). Measured, against the tree alone: with the sun 20 degrees from the demo's eye, turned 60
-/// (as the demo's sun is), the conifer reads 1.198 (alone 1.028), the broadleaf 0.998 (1.018);
-/// with the sun 60 degrees from the eye, beside its line of sight, 1.114 (0.960) and 0.851
-/// (0.947). So a conifer's texture lets through up to 17 % more of the sun than its mesh
-/// where the broadleaf's lets through up to 10 % less: the next error to take apart. (The
-/// same at 0.5, 1 and 1.5 crown widths: conifer 1.19 / 1.16 / 1.08 and 1.05 / 1.14 / 1.12,
-/// broadleaf 0.98 / 1.00 / 1.00 and 0.84 / 0.89 / 0.92.)
+/// (as the demo's sun is), the conifer reads 1.136 (alone 1.014), the broadleaf 1.022 (1.022);
+/// with the sun 60 degrees from the eye, beside its line of sight, 1.162 (0.987) and 0.945
+/// (0.998); mean distance 0.094. Before level 0 was fitted ray by ray (`bake::refine`, stop
+/// 55): 1.185, 1.011, 1.207 and 0.924, mean 0.120: the fringe the interpolation blurs around
+/// the crown's dense columns was paid for by a core that let through too much (rays past the
+/// conifer's upper axis 43 % where the mesh lets through 30 %; 35 % with the fit). What is
+/// left is mostly the conifer's core (a single isotropic field cannot hold the trunk's and
+/// whorls' opacity along every direction at once).
 #[test]
 fn a_neighbours_shadow_lets_through_as_much_sun_as_its_meshs() {
     let shading = sunlit_lambert_only();
@@ -717,7 +734,7 @@ fn a_neighbours_shadow_lets_through_as_much_sun_as_its_meshs() {
     }
     let mean = distances.iter().sum::<f64>() / distances.len() as f64;
     println!("mean distance from the meshes' sunlit share: {mean:.3}");
-    assert!(mean < 0.15, "{mean}");
+    assert!(mean < 0.12, "{mean}");
 }
 
 /// Two trees whose crowns overlap, as a forest's neighbours do. The renderer sums their

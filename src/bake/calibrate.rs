@@ -52,7 +52,7 @@ const MESH_STREAMS: u64 = 1 << 16;
 const SAMPLES_PER_CELL: f64 = 2.0;
 
 /// The 13 directions, unit length: axes, face diagonals, body diagonals.
-fn directions() -> Vec<DVec3> {
+pub(super) fn directions() -> Vec<DVec3> {
     let mut d = vec![DVec3::X, DVec3::Y, DVec3::Z];
     for (a, b) in [(0, 1), (0, 2), (1, 2)] {
         for s in [1.0, -1.0] {

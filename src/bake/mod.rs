@@ -2,7 +2,8 @@
 //!
 //! The passes, in order: fit the grid over the model, classify triangles (foliage or wood, open
 //! or closed, thick closed parts apart), scan along the three axes, turn what the rays saw into
-//! density and albedo per texture cell, take Sobel gradients, and build the mip chain; where the
+//! density and albedo per texture cell, fit level 0's density ray by ray to the mesh along 13
+//! directions (`bake::refine`), take Sobel gradients, and build the mip chain; where the
 //! model has thick closed parts, again with those parts as solids over the density of the rest
 //! (`bake::solid`), kept on the levels that hold their shape; then fit each level's
 //! directional form, self-shadowing and wood weight to the mesh.
@@ -11,6 +12,7 @@ mod calibrate;
 mod classify;
 mod filter;
 mod grid;
+mod refine;
 mod scan;
 mod seen;
 pub mod sobel;
@@ -237,10 +239,14 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     level.leaves = normal_moments(&grid, &scans, 1);
     level.wood_normals = normal_moments(&grid, &scans, 0);
     let with_density = |mut level: Level, density: [Vec<f32>; 2]| {
-        for part in 0..2 {
-            level.gradient[part] = sobel::gradient(&density[part], grid.dims, grid.cell);
-        }
         level.density = density;
+        // The paper's occupancy is kept as the paper has it.
+        if settings.density == DensityModel::Transmittance {
+            refine::refine(mesh, &mut level, grid.origin, extinction_scale);
+        }
+        for part in 0..2 {
+            level.gradient[part] = sobel::gradient(&level.density[part], grid.dims, grid.cell);
+        }
         mip_chain(level, extinction_scale)
     };
     let mut levels = with_density(level.clone(), density);
