@@ -629,9 +629,11 @@ fn a_lone_trees_own_shadow_lets_through_as_much_sun_as_its_meshs() {
 /// columns a cell apart; a seen leaf's shadow ray runs through the gaps the eye sees by, and
 /// the grid's lookup read it as deep as its neighbours': before the first cells of the own
 /// tree were marched, the leaf-card tree read 0.87-0.90, the fixtures 0.95-0.99 (mean
-/// distance 0.058, largest 0.128); since, 0.98-1.00 (0.010, 0.018). What is left, about 1 %
-/// dark, is likely the exact march's noise, which brightens exp(-depth): against a fine march
-/// the cache now reads within 0.5 % (README, *The own tree's shadow near the leaf, marched*).
+/// distance 0.058, largest 0.128); since, 0.98-1.00 (0.009-0.010, 0.018-0.019). What is left,
+/// about 1 % dark, is not yet taken apart: the exact march's noise brightens exp(-depth), and
+/// beyond the marched cells the grid's interpolated depth darkens it on a sharp field (README,
+/// *The own tree's shadow near the leaf, marched*, and the finding after *Level 0 fitted ray by
+/// ray, landed*).
 #[test]
 fn cached_shadow_rays_let_through_as_much_sun_as_the_exact_march() {
     let shading = sunlit_lambert_only();
