@@ -154,6 +154,64 @@ fn mesh_area(
     hits as f64 / (MESH_OVERSAMPLE * MESH_OVERSAMPLE)
 }
 
+/// The squares of side `spacing` over the shadow of the box `lo..hi` along `d`, as the
+/// parallel rays of a fit cross it: `na x nb` of them, and where a ray through a point of
+/// them starts (before the box) and how far it runs (past it).
+pub(super) struct Shadow {
+    d: DVec3,
+    e1: DVec3,
+    e2: DVec3,
+    centre: DVec3,
+    radius: f64,
+    a0: f64,
+    b0: f64,
+    spacing: f64,
+    pub(super) na: usize,
+    pub(super) nb: usize,
+}
+
+impl Shadow {
+    pub(super) fn new(lo: DVec3, hi: DVec3, d: DVec3, spacing: f64) -> Shadow {
+        let helper = if d.y.abs() < 0.9 { DVec3::Y } else { DVec3::X };
+        let e1 = d.cross(helper).normalize();
+        let e2 = d.cross(e1);
+        let centre = (lo + hi) * 0.5;
+        let corners =
+            crate::geom::box_corners(lo.to_array(), hi.to_array()).map(|c| DVec3::from(c) - centre);
+        let span = |e: DVec3| {
+            corners
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
+                    (a.min(c.dot(e)), b.max(c.dot(e)))
+                })
+        };
+        let ((a0, a1), (b0, b1)) = (span(e1), span(e2));
+        Shadow {
+            d,
+            e1,
+            e2,
+            centre,
+            radius: (hi - lo).length() * 0.5,
+            a0,
+            b0,
+            spacing,
+            na: ((a1 - a0) / spacing).ceil() as usize,
+            nb: ((b1 - b0) / spacing).ceil() as usize,
+        }
+    }
+
+    /// The origin of the ray through the point `(x, y)` squares from the shadow's corner.
+    pub(super) fn start(&self, x: f64, y: f64) -> DVec3 {
+        let (a, b) = (self.a0 + x * self.spacing, self.b0 + y * self.spacing);
+        self.centre + self.e1 * a + self.e2 * b - self.d * (self.radius + 1.0)
+    }
+
+    /// How far a ray runs from its origin to beyond the box.
+    pub(super) fn length(&self) -> f64 {
+        2.0 * (self.radius + 1.0)
+    }
+}
+
 /// Parallel rays along `d`, one at a random point of each square of side `spacing` over the
 /// box `lo..hi`'s shadow (stratified, so thin axis-aligned branches do not alias with a
 /// regular lattice), each as (origin before the box, parameter after it). `stream` keys the
@@ -165,35 +223,15 @@ pub(super) fn lattice(
     spacing: f64,
     stream: u64,
 ) -> Vec<(DVec3, f64)> {
-    let helper = if d.y.abs() < 0.9 { DVec3::Y } else { DVec3::X };
-    let e1 = d.cross(helper).normalize();
-    let e2 = d.cross(e1);
-    let centre = (lo + hi) * 0.5;
-    let radius = (hi - lo).length() * 0.5;
-    let corners =
-        crate::geom::box_corners(lo.to_array(), hi.to_array()).map(|c| DVec3::from(c) - centre);
-    let span = |e: DVec3| {
-        corners
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
-                (a.min(c.dot(e)), b.max(c.dot(e)))
-            })
-    };
-    let ((a0, a1), (b0, b1)) = (span(e1), span(e2));
-    let (na, nb) = (
-        ((a1 - a0) / spacing).ceil() as usize,
-        ((b1 - b0) / spacing).ceil() as usize,
-    );
-    let mut rays = Vec::with_capacity(na * nb);
-    for j in 0..nb {
+    let shadow = Shadow::new(lo, hi, d, spacing);
+    let na = shadow.na;
+    let mut rays = Vec::with_capacity(na * shadow.nb);
+    for j in 0..shadow.nb {
         for i in 0..na {
             let key = rng::hash3(stream, (i + na * j) as u64, rng::purpose::CALIBRATION);
-            let a = a0 + (i as f64 + rng::unit(key)) * spacing;
-            let b = b0 + (j as f64 + rng::unit(rng::mix64(key))) * spacing;
-            rays.push((
-                centre + e1 * a + e2 * b - d * (radius + 1.0),
-                2.0 * (radius + 1.0),
-            ));
+            let x = i as f64 + rng::unit(key);
+            let y = j as f64 + rng::unit(rng::mix64(key));
+            rays.push((shadow.start(x, y), shadow.length()));
         }
     }
     rays

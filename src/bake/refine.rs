@@ -20,7 +20,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::calibrate::{directions, midpoints};
+use super::calibrate::{Shadow, directions, midpoints};
 use crate::geom::Ray;
 use crate::import::Mesh;
 use crate::mesh_tracer::MeshTracer;
@@ -196,27 +196,8 @@ fn rays(
     tracer: &MeshTracer,
 ) -> Vec<(DVec3, f64)> {
     let hi = origin + DVec3::from(level.dims.map(|n| n as f64)) * level.cell;
-    let spacing = level.cell / RAYS_PER_CELL;
-    let helper = if d.y.abs() < 0.9 { DVec3::Y } else { DVec3::X };
-    let e1 = d.cross(helper).normalize();
-    let e2 = d.cross(e1);
-    let centre = (origin + hi) * 0.5;
-    let radius = (hi - origin).length() * 0.5;
-    let corners =
-        crate::geom::box_corners(origin.to_array(), hi.to_array()).map(|c| DVec3::from(c) - centre);
-    let span = |e: DVec3| {
-        corners
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
-                (a.min(c.dot(e)), b.max(c.dot(e)))
-            })
-    };
-    let ((a0, a1), (b0, b1)) = (span(e1), span(e2));
-    let (na, nb) = (
-        ((a1 - a0) / spacing).ceil() as usize,
-        ((b1 - b0) / spacing).ceil() as usize,
-    );
-    let start = |a: f64, b: f64| centre + e1 * a + e2 * b - d * (radius + 1.0);
+    let shadow = Shadow::new(origin, hi, d, level.cell / RAYS_PER_CELL);
+    let (na, nb) = (shadow.na, shadow.nb);
     let n = SUBRAYS * SUBRAYS;
     (0..na * nb)
         .into_par_iter()
@@ -228,16 +209,13 @@ fn rays(
                     let u = ((sub % SUBRAYS) as f64 + rng::unit(key)) / SUBRAYS as f64;
                     let v = ((sub / SUBRAYS) as f64 + rng::unit(rng::mix64(key))) / SUBRAYS as f64;
                     let ray = Ray {
-                        origin: start(a0 + (i + u) * spacing, b0 + (j + v) * spacing).as_vec3(),
+                        origin: shadow.start(i + u, j + v).as_vec3(),
                         dir: d.as_vec3(),
                     };
-                    !tracer.occluded(&ray, 0.0, (2.0 * (radius + 1.0)) as f32, key)
+                    !tracer.occluded(&ray, 0.0, shadow.length() as f32, key)
                 })
                 .count();
-            (
-                start(a0 + (i + 0.5) * spacing, b0 + (j + 0.5) * spacing),
-                passed as f64 / n as f64,
-            )
+            (shadow.start(i + 0.5, j + 0.5), passed as f64 / n as f64)
         })
         .collect()
 }
