@@ -103,7 +103,7 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
                     Some(o) => depth = near_then_cached(scene, &ray, o, (depth, opaque)),
                     None => {
                         let level = level_for(scene, i, footprint, lod_bias);
-                        depth += scene.sun_depth.depth(scene, i, level, &ray);
+                        depth += scene.sun_depth.depth(scene, i, level, &ray, 1.0);
                     }
                 }
             }
@@ -178,7 +178,7 @@ fn near_then_cached(scene: &Scene, ray: &Ray, o: &OwnTree, (depth, opaque): (f32
         origin: ray.origin + ray.dir * near,
         dir: ray.dir,
     };
-    depth + o.factor * scene.sun_depth.depth(scene, i, o.level, &beyond)
+    depth + scene.sun_depth.depth(scene, i, o.level, &beyond, o.factor)
 }
 
 /// The optical depth of the tree `a` between `enter` and `exit` along the ray by the midpoint

@@ -1248,8 +1248,10 @@ fn the_canopy_layer_averages_the_samples() {
 /// level and one coarser. The exact march here takes 20 samples per cell, so its own noise
 /// (and the bias exp(-depth) takes from it) is far below the tolerance. The trees stand at
 /// turns the grids of every level read here are drawn at (16ths), so this measures the grids
-/// alone: interpolated between columns, single rays' light is off by 0.020-0.040 over these
-/// three sets of turns, the mean depth by less than 0.002.
+/// alone: interpolated between columns, single rays' light is off by 0.019-0.035 over these
+/// three sets of turns, the mean light by less than 0.001 (0.0008-0.0012 dark when the
+/// lookup interpolated depths alone; the mean depth, which the lookup no longer keeps where
+/// it interpolates transmittances, reads 0.008 shallow on the first set).
 #[test]
 fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
     let turn = std::f32::consts::TAU / 16.0;
@@ -1259,24 +1261,24 @@ fn cached_shadow_rays_find_the_transmittance_an_exact_march_finds() {
             worst < 0.05,
             "{turns:?}: worst difference in transmittance {worst}"
         );
-        assert!(bias.iter().all(|b| b.abs() < 0.005), "{turns:?}: {bias:?}");
+        assert!(bias.iter().all(|b| b.abs() < 0.001), "{turns:?}: {bias:?}");
     }
 }
 
 /// The same trees at turns between the grids': rounding each tree's shadow to the nearest
 /// 64th of a turn (on the finest level; 32nds one coarser) shifts it by up to a third of a
-/// cell here, which moves single rays' light by up to 0.13 but leaves the mean depth within
-/// 0.015 of the exact march's (`make budget`: 0.3-0.6% more error over a frame).
+/// cell here, which moves single rays' light by up to 0.13 but leaves the mean light within
+/// 0.0025 of the exact march's (`make budget`: 0.3-0.6% more error over a frame).
 #[test]
 fn cached_shadow_rays_of_trees_between_turns_stay_near_the_exact_march() {
     let (worst, bias) = cached_against_exact([0.4, 2.2, 5.1]);
     assert!(worst < 0.15, "worst difference in transmittance {worst}");
-    assert!(bias.iter().all(|b| b.abs() < 0.015), "{bias:?}");
+    assert!(bias.iter().all(|b| b.abs() < 0.004), "{bias:?}");
 }
 
 /// Over points in and around three trees at `rotations` (radians): the largest difference in
 /// transmittance between cached and exact shadow rays, and per footprint (the other trees read
-/// at level 1, at level 2) the mean difference in optical depth.
+/// at level 1, at level 2) the mean difference in transmittance, cached less exact.
 fn cached_against_exact(rotations: [f32; 3]) -> (f32, [f64; 2]) {
     let n = 16;
     let mut l = Level::empty([n; 3], 0.25);
@@ -1378,7 +1380,7 @@ fn cached_against_exact(rotations: [f32; 3]) -> (f32, [f64; 2]) {
             )
         };
         let (cached, exact) = (t(ShadowRays::Cached, 1.0), t(ShadowRays::Exact, 0.05));
-        bias[(k % 4 / 2) as usize] += f64::from(exact.max(1e-6).ln() - cached.max(1e-6).ln());
+        bias[(k % 4 / 2) as usize] += f64::from(cached - exact);
         worst = worst.max((cached - exact).abs());
     }
     (worst, bias.map(|b| b / 200.0))
@@ -1433,7 +1435,7 @@ fn a_shared_sun_depth_grid_does_not_depend_on_the_tree_that_built_it() {
                 origin,
                 dir: scene.sun.direction,
             };
-            d[i as usize] = scene.sun_depth.depth(&scene, i, 0, &ray);
+            d[i as usize] = scene.sun_depth.depth(&scene, i, 0, &ray, 1.0);
         }
         assert_eq!(
             scene.sun_depth.built().0,
