@@ -337,8 +337,9 @@ impl Grid {
         // The trapezoid rule: the sunward layer adds half a layer of its own (the distance to
         // the grid's face), each later plane the mean of it and the one before times the
         // distance between, and the face a quarter of the last layer and of itself (half a
-        // layer's distance). Between two layers [`substeps`] planes: only the layers are kept
-        // (the planes between are written to a scratch layer past the face's, dropped after).
+        // layer's distance). A layer is reached in [`substeps`] planes from the one before:
+        // only the layers are kept (the planes between are written to a scratch layer past
+        // the face's, dropped after).
         let subs = substeps(fine);
         let towards_sun = if sun[k] > 0.0 { 1.0 } else { -1.0 };
         let h = 0.5 / subs as f32;
@@ -349,8 +350,8 @@ impl Grid {
                 continue;
             }
             for sub in 1..subs {
-                let between = z + towards_sun * (1.0 - sub as f32 / subs as f32);
-                sweep(between, dims[2] + 1, [h, h]);
+                let plane = z + towards_sun * (1.0 - sub as f32 / subs as f32);
+                sweep(plane, dims[2] + 1, [h, h]);
             }
             sweep(z, j, [h, h]);
         }

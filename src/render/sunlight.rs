@@ -155,9 +155,9 @@ pub fn transmittance(scene: &Scene, ray: Ray, t_max: f32, march: &March, caster:
 /// the sun 20 degrees from it; against a fine march): the grid read the mean depth 18 % deep
 /// and the transmittance (factor 0.5) 9 % dark; marching the first 1 / 2 / 3 cells, 6 / 2 /
 /// 0.5 % dark; the fixture conifer 2.2 % dark, 0.1 % marching 3 (README, *The own tree's
-/// shadow near the leaf, marched*). Beyond, the correlation with what the eye sees is gone;
-/// the grid's interpolation between columns keeps the bias it has anywhere on a sharp field
-/// (`sun_depth`'s documentation).
+/// shadow near the leaf, marched*). Beyond, the correlation with what the eye sees is gone,
+/// and the grid's lookup lets through the light a ray there sees on average (`Grid::at` in
+/// `sun_depth`).
 const NEAR_CELLS: f32 = 3.0;
 
 /// `depth` plus the optical depth of the tree `o` the ray's sample lies in, cached: its first
