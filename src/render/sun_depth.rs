@@ -29,11 +29,12 @@
 //! the depth, and with it none of the brightening exp(-depth) takes from a noisy depth; a
 //! lookup interpolated between columns, a few percent of a tree's depth at a point, and by
 //! transmittance where the columns drift across the field's cells (`Grid::at`): through a
-//! sharp field (a level 0's leaves) interpolated depths read up to 14 % dark on average. Nor is
-//! it biased at the points a view sees: a seen leaf's shadow ray starts in the gaps the eye
-//! sees it through, shallower than the columns around it, so the tree a sample lies in is
-//! marched for its first cells and read from its grid only beyond them (`sunlight::NEAR_CELLS`). Its cost is
-//! building the grids, which a small frame does not earn back (README, *Measured*).
+//! sharp field (a level 0's leaves) interpolated depths read up to 14 % dark on average. Nor
+//! is it biased at the points a view sees: a seen leaf's shadow ray starts in the gaps the
+//! eye sees it through, shallower than the columns around it, so the tree a sample lies in is
+//! marched for its first cells and read from its grid only beyond them
+//! (`sunlight::NEAR_CELLS`). Its cost is building the grids, which a small frame does not earn
+//! back (README, *Measured*).
 
 use std::sync::OnceLock;
 
@@ -199,8 +200,9 @@ fn fineness(dims: [usize; 3]) -> f32 {
 /// One tree's optical depths towards the sun at one level, on a grid sheared along the sun:
 /// its layers lie across the sun's dominant axis `k` (the level's, `fineness` times finer),
 /// but its columns run along the sun, each layer's shifted by `shift` cells across (axes `a`,
-/// `b`) from the one below. Each column is one ray towards the sun, so its depths are a running sum along it,
-/// exact to the trapezoid rule, and nothing is interpolated but the final lookup.
+/// `b`) from the one below. Each column is one ray towards the sun, so its depths are a
+/// running sum along it (by the trapezoid rule, [`substeps`] planes a layer), and nothing is
+/// interpolated but the final lookup.
 pub(super) struct Grid {
     /// The level's grid: its origin (model space), and in the grid's own cells (`fineness`
     /// to a level cell) their number per metre and its extent.
