@@ -284,7 +284,7 @@ impl Grid {
         };
         let face = if sun[k] > 0.0 { 0.0 } else { nk };
         let columns = dims[0] * dims[1];
-        let mut depth = vec![0.0f32; columns * (dims[2] + 2)];
+        let mut depth = vec![0.0f32; columns * (dims[2] + 1)];
         let (mut sum, mut before) = (vec![0.0f32; columns], vec![0.0f32; columns]);
         // Every column of a layer reads the slice at the same few points across `a` (and a
         // row of them at one across `b`): where, and with what weights, is worked out once.
@@ -295,26 +295,21 @@ impl Grid {
         let mut entry = vec![f32::NAN; if solids { columns } else { 0 }];
         let mut field_before = vec![0.0f32; entry.len()];
         let mut z_before = f32::NAN;
-        let mut sweep = |z: f32, layer: usize, weight: [f32; 2]| {
+        let mut sweep = |z: f32, layer: Option<usize>, weight: [f32; 2]| {
             slice.fill(z / fine);
             // Column `(ia, ib)` crosses the plane `z` at `q + shift z` fine cells across.
             let across = [0, 1].map(|x| lo[x] + 0.5 + shift[x] * z);
             let [na, nb] = slice.dims();
             taps.clear();
             taps.extend((0..dims[0]).map(|ia| Tap::new((across[0] + ia as f32) / fine, na)));
-            let layer = &mut depth[columns * layer..columns * (layer + 1)];
             for ib in 0..dims[1] {
                 let v = Tap::new((across[1] + ib as f32) / fine, nb);
                 let row = ib * dims[0]..(ib + 1) * dims[0];
                 let cells = taps.iter().zip(&mut sum[row.clone()]);
-                for (((u, sum), before), depth) in cells
-                    .zip(&mut before[row.clone()])
-                    .zip(&mut layer[row.clone()])
-                {
+                for ((u, sum), before) in cells.zip(&mut before[row.clone()]) {
                     let s = slice.at_taps(*u, v);
                     *sum += (weight[0] * s + weight[1] * *before) * step;
                     *before = s;
-                    *depth = *sum;
                 }
                 if solids {
                     for (ia, u) in taps.iter().enumerate() {
@@ -334,31 +329,33 @@ impl Grid {
                     }
                 }
             }
+            // A layer keeps the columns' running sums; a plane between layers only adds to them.
+            if let Some(layer) = layer {
+                depth[columns * layer..columns * (layer + 1)].copy_from_slice(&sum);
+            }
             z_before = z;
         };
         // The trapezoid rule: the sunward layer adds half a layer of its own (the distance to
         // the grid's face), each later plane the mean of it and the one before times the
         // distance between, and the face a quarter of the last layer and of itself (half a
-        // layer's distance). A layer is reached in [`substeps`] planes from the one before:
-        // only the layers are kept (the planes between are written to a scratch layer past
-        // the face's, dropped after).
+        // layer's distance). A layer is reached in [`substeps`] planes from the one before,
+        // and only the layers are kept.
         let subs = substeps(fine);
         let towards_sun = if sun[k] > 0.0 { 1.0 } else { -1.0 };
         let h = 0.5 / subs as f32;
         for (l, &j) in layers.iter().enumerate() {
             let z = j as f32 + 0.5;
             if l == 0 {
-                sweep(z, j, [0.5, 0.0]);
+                sweep(z, Some(j), [0.5, 0.0]);
                 continue;
             }
             for sub in 1..subs {
                 let plane = z + towards_sun * (1.0 - sub as f32 / subs as f32);
-                sweep(plane, dims[2] + 1, [h, h]);
+                sweep(plane, None, [h, h]);
             }
-            sweep(z, j, [h, h]);
+            sweep(z, Some(j), [h, h]);
         }
-        sweep(face, dims[2], [0.25, 0.25]);
-        depth.truncate(columns * (dims[2] + 1));
+        sweep(face, Some(dims[2]), [0.25, 0.25]);
         let deepest = depth.iter().fold(0.0f32, |m, &d| m.max(d.min(DEEPEST)));
         let unit = if deepest > 0.0 {
             deepest / f32::from(u16::MAX)
