@@ -238,8 +238,15 @@ pub struct Level {
     pub self_shadow: SelfShadow,
     /// The weight on the wood's extinction in choosing which part of a sample scatters: the
     /// wood shows as much as in the mesh, not wherever a coarse cell mixes it with foliage
-    /// (see `bake::seen`; 1 in files before texel 1.2).
+    /// (see `bake::seen`; 1 in files before texel 1.2). Where the level has
+    /// [`Level::wood_shown`] (texel 1.7), that replaces it.
     pub wood_weight: f32,
+    /// The wood's density as it counts in choosing which part of a sample scatters, per cell:
+    /// the density times the weight that makes the cell show its wood first as often as the
+    /// mesh does within it (`bake::seen::wood_shown`). Empty where the level has none (files
+    /// before texel 1.7, and textures of one part), and [`Level::wood_weight`] then weighs the
+    /// wood's density.
+    pub wood_shown: Vec<f32>,
     /// The solids per part: the fraction of each cell inside the model's thick closed parts
     /// (`bake::solid`), drawn as opaque surfaces where the trilinear field of
     /// `solid_wood + f solid_foliage` reaches [`SOLID_LEVEL`]. Both empty where the level has
@@ -337,6 +344,7 @@ impl Level {
             directional: ISOTROPIC,
             self_shadow: SelfShadow::NONE,
             wood_weight: 1.0,
+            wood_shown: Vec::new(),
             solid: [Vec::new(), Vec::new()],
         }
     }
@@ -572,6 +580,14 @@ impl Level {
             for k in 0..8 {
                 f.wood_albedo += Vec3::from(albedo[idx[k]]) * w[k];
             }
+            f.wood_shown = if f.density[1] <= 0.0 {
+                // The only part there: which part scatters is certain, whatever its weight.
+                f.density[0]
+            } else if self.wood_shown.is_empty() {
+                f.density[0] * self.wood_weight
+            } else {
+                (0..8).map(|k| self.wood_shown[idx[k]] * w[k]).sum()
+            };
         }
         f
     }
@@ -884,6 +900,9 @@ impl Occupancy {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fetch {
     pub density: [f32; 2],
+    /// The wood's density as it counts in choosing which part scatters ([`Level::wood_shown`],
+    /// or the density times [`Level::wood_weight`]), read where both parts have density.
+    pub wood_shown: f32,
     pub gradient: [Vec3; 2],
     pub wood_albedo: Vec3,
 }
@@ -1083,6 +1102,24 @@ impl Texel {
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    /// What counts of the wood in choosing which part scatters: the shown wood interpolated
+    /// where both parts have density (texel 1.7), the wood itself where it is the only part,
+    /// and the level's weight on the wood without the channel.
+    #[test]
+    fn the_wood_shown_is_read_where_both_parts_are() {
+        let mut l = Level::empty([2, 1, 1], 1.0);
+        l.density = [vec![2.0, 2.0], vec![1.0, 0.0]];
+        l.wood_weight = 3.0;
+        let at = |l: &Level, x: f32| l.fetch(Vec3::new(x, 0.5, 0.5));
+        // Between the centres: foliage 0.5, wood 2.
+        assert_eq!(at(&l, 1.0).wood_shown, 6.0);
+        assert_eq!(at(&l, 1.5).wood_shown, 2.0, "no foliage: the wood itself");
+        l.wood_shown = vec![0.5, 4.0];
+        assert_eq!(at(&l, 1.0).wood_shown, 2.25);
+        assert_eq!(at(&l, 0.5).wood_shown, 0.5);
+        assert_eq!(at(&l, 1.5).wood_shown, 2.0, "no foliage: the wood itself");
+    }
 
     /// A factor is linear in the angle between eye and sun and in the sun's height between
     /// the stored ones, the height clamped to 0 to 90 degrees; one row serves every height in

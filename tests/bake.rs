@@ -669,7 +669,7 @@ fn mask_marked_bark_stays_wood_and_flags_override_both_ways() {
     let o = run(&["inspect", "t.texel", "--json"], dir.path());
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["materials"][0]["reason"], "alpha_cuts");
-    assert_eq!(v["format"], "texel 1.6");
+    assert_eq!(v["format"], "texel 1.7");
     // Albedo statistics are over the cells with density of their part, and say so; the raw
     // size is the file's own R, not a figure recomputed from a channel list.
     let albedo = v["channels"]

@@ -94,7 +94,7 @@ fn golden_texel_decodes_and_is_reproduced() {
     let t = texel::decode(&golden).unwrap();
     assert_eq!(t.levels[0].dims, [5, 8, 5]);
     assert_eq!(&golden[..8], b"\x89TEXEL\r\n");
-    assert_eq!(&golden[8..12], &[1, 0, 6, 0]);
+    assert_eq!(&golden[8..12], &[1, 0, 7, 0]);
     let fresh = golden_bytes();
     assert!(
         fresh == golden,

@@ -11,7 +11,7 @@ class Bad(Exception):
     pass
 
 MAGIC = {b"\x89TEXEL\r\n": "texel", b"\x89TXINST\n": "instances"}
-MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 6, "instances": 1}
+MAJOR, MINOR = {"texel": 1, "instances": 1}, {"texel": 7, "instances": 1}
 CELL_LIMIT, TREE_LIMIT = 2**25, 2**24           # the reader's allocation limits (texel's defaults)
 
 def f32(x):  # round a Python float to binary32
@@ -205,6 +205,7 @@ def read_texel_header(c, minor, R):
     if len(solids) == 1: raise Bad(f"11: channel {solids[0]} without its pair")
     for n in solids:
         if have[n] != (1, U16): raise Bad(f"11: channel {n} is not 1 x Unorm16 (got {have[n]})")
+    if "shown_wood" in have and have["shown_wood"] != (1, F32): raise Bad(f"11: channel shown_wood is not 1 x F32 (got {have['shown_wood']})")
     if cells > CELL_LIMIT: raise Bad(f"{cells} cells, more than this reader's limit of {CELL_LIMIT}")
     return h
 
@@ -219,8 +220,8 @@ def read_texel_payload(h, payload):
             if sys.byteorder == "big": a.byteswap()
             pos += size
             chans[k["name"]] = a
-        for name in ("density_wood", "density_foliage"):
-            if any(not math.isfinite(v) or v < 0 for v in chans[name]): raise Bad(f"12: level {n}: a negative or non-finite {name}")
+        for name in ("density_wood", "density_foliage", "shown_wood"):
+            if name in chans and any(not math.isfinite(v) or v < 0 for v in chans[name]): raise Bad(f"12: level {n}: a negative or non-finite {name}")
         for name in ("gradient_wood", "gradient_foliage"):
             if not all(map(math.isfinite, chans[name])): raise Bad(f"12: level {n}: a non-finite {name}")
         for name in ("leaves_foliage", "normals_wood"):
@@ -349,8 +350,8 @@ def check_golden(h):
         if got != want: bad.append(f"{what}: decoded {got!r}, spec says {want!r}")
     name = os.path.basename(h["path"])
     if name == "conifer-8.texel":
-        eq("size", h["size"], 11581); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("5e0e54dc", "a7f6d25d"))
-        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 6), 2288, 22540, 9257))
+        eq("size", h["size"], 11888); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("de90a86a", "0533cb47"))
+        eq("version, H, R, P", (h["version"], h["H"], h["R"], h["P"]), ((1, 7), 2322, 23520, 9530))
         eq("generator", h["generator"], "texel-forest 0.1.0")
         eq("density_model, extinction_scale", (h["density_model"], h["extinction_scale"]), ("Transmittance", 1.0))
         eq("triangles, foliage_triangles", (h["triangles"], h["foliage_triangles"]), (9634, 4698))
@@ -372,15 +373,16 @@ def check_golden(h):
         eq("directional, level 0 (binary32)", D[0], [f32(x) for x in (0.97520363, 0.9295316, 0.7996859, -0.037821446, -0.028375123, -0.022202637, -0.012613871)])
         eq("directional, level 3 (binary32)", D[3], [f32(x) for x in (1.0950727, 0.5143539, 1.0293595, -0.005554157, -0.00496664, -0.0027239188, -0.12274805)])
         K = h["self_shadow"]
-        eq("self_shadow, level 0 (binary32)", K[0], [f32(x) for x in (0, 0.76002705, 1.4052844, 3.6256113, 11.280713, 11.280713)])
+        eq("self_shadow, level 0 (binary32)", K[0], [f32(x) for x in (0, 0.7871234, 1.4666569, 3.771575, 11.720663, 11.720663)])
         eq("self_shadow, level 3 (binary32)", K[3], [f32(x) for x in (0, 4.3973017, 7.681309, 16, 16, 16)])
         KH = h["self_shadow_by_height"][0]
-        eq("self_shadow_by_height, level 0, sun 0 degrees high (binary32)", KH[0], [f32(x) for x in (0, 0.582582, 1.1388823, 2.6184762, 6.269943, 6.269943)])
-        eq("self_shadow_by_height, level 0, sun 90 degrees high (binary32)", KH[3], [f32(x) for x in (0, 1.0433723, 1.664674, 5.7190127, 15.630217, 15.630217)])
+        eq("self_shadow_by_height, level 0, sun 0 degrees high (binary32)", KH[0], [f32(x) for x in (0, 0.6045495, 1.1860156, 2.7294476, 6.5371594, 6.5371594)])
+        eq("self_shadow_by_height, level 0, sun 90 degrees high (binary32)", KH[3], [f32(x) for x in (0, 1.0897115, 1.8045199, 5.87169, 16, 16)])
         KV = h["self_shadow_by_view"][0]
-        eq("self_shadow_by_view, level 0, eye 35 degrees high, sun turned 0 (binary32)", KV[1][0], [f32(x) for x in (0, 0.7698952, 1.5295203, 5.0621305, 16, 16)])
-        eq("self_shadow_by_view, level 0, eye 60 degrees high, sun turned 180 (binary32)", KV[2][2], [f32(x) for x in (0, 0.8972148, 1.5660295, 5.7769856, 11.280713, 11.280713)])
+        eq("self_shadow_by_view, level 0, eye 35 degrees high, sun turned 0 (binary32)", KV[1][0], [f32(x) for x in (0, 0.7990598, 1.5857943, 5.169662, 16, 16)])
+        eq("self_shadow_by_view, level 0, eye 60 degrees high, sun turned 180 (binary32)", KV[2][2], [f32(x) for x in (0, 0.9234367, 1.613253, 5.9598627, 11.720663, 11.720663)])
         eq("wood_weight, levels 0 and 3 (binary32)", [h["wood_weight"][0], h["wood_weight"][3]], [f32(0.3184017), f32(0.22947289)])
+        eq("shown_wood, cell (2,4,2) of level 0 and level 3 (binary32)", [v["shown_wood"][0], d3["shown_wood"][0]], [f32(0.08482945), f32(0.0012357567)])
         eq("k_0 along y and along the body diagonal (6 decimals)", [round(directional_factor(D[0], w), 6) for w in ((0, 1, 0), (1, 1, 1))], [0.957558, 0.915607])
     elif name == "forest-12.instances":
         eq("size", h["size"], 1120); eq("SHA-256", (h["sha256"][:8], h["sha256"][-8:]), ("dcb70327", "b8048eac"))

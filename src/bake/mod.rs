@@ -274,16 +274,17 @@ pub fn bake(mesh: &Mesh, settings: &BakeSettings) -> Result<Texel, BakeError> {
     for (level, s) in levels.iter_mut().zip(forms) {
         level.directional = s;
     }
-    let sights = seen::fit_sight(
+    let (sights, shown) = seen::fit_sight(
         mesh,
         &model.is_foliage,
         &levels,
         grid.origin,
         extinction_scale,
     );
-    for (level, s) in levels.iter_mut().zip(sights) {
+    for ((level, s), shown) in levels.iter_mut().zip(sights).zip(shown) {
         level.wood_weight = s.wood_weight;
         level.self_shadow = s.self_shadow;
+        level.wood_shown = shown;
     }
 
     let (lo, hi) = mesh.bounds().expect("fit_grid checked for triangles");

@@ -3,10 +3,15 @@
 //!
 //! **Wood share.** A coarse cell mixes a trunk with the needles around it; scattering in
 //! proportion to extinction, it shows the wood as much as the foliage, where the mesh hides
-//! the trunk inside the crown (the fixture conifer's coarse levels came out 21 % redder). Each
-//! level stores a weight `w` on the wood's extinction in choosing which part scatters, fitted so
-//! that the wood's share of what 12 views see equals the share of the mesh's first hits that
-//! are wood.
+//! the trunk inside the crown (the fixture conifer's coarse levels came out 21 % redder).
+//! Since texel 1.7 each cell stores the wood's density as it counts in choosing which part
+//! scatters ([`wood_shown`]), so that the cell shows its wood first as often as the mesh does
+//! within it. Each level also keeps, for older readers, one weight `w` on the wood's
+//! extinction, fitted so that the wood's share of what 12 views of the lone tree see equals
+//! the share of the mesh's first hits that are wood. That weight was ill-posed: it moved the
+//! wood of the crown's leafy cells, where it acts least in those views, to make up for a trunk
+//! under the crown it cannot move, and reached its bounds on four of the shared real trees
+//! (README, *The wood a crown hides, cell by cell*).
 //!
 //! **Self-shadowing.**
 //! A volume shadows itself wrongly in two ways, both measured on the fixture forest:
@@ -278,18 +283,27 @@ impl Drawn {
 }
 
 /// The level's foliage samples of one view ray that carry its shadows: `POINTS_PER_RAY`
-/// points drawn from the samples' weights times the chance that the foliage scatters there
-/// (wood weighted by `wood`).
+/// points drawn from the samples' weights times the chance that the foliage scatters there,
+/// as the renderer chooses: by the level's shown wood (`shown`, [`wood_shown`]) where it has
+/// one, else with the wood weighted by `wood`.
 fn texture_points(
     level: &Sparse,
-    (origin, scale, wood): (DVec3, f64, f64),
+    (origin, scale, wood, shown): (DVec3, f64, f64, &[f32]),
     o: DVec3,
     v: DVec3,
     key: u64,
 ) -> Vec<Drawn> {
+    let factor = scale * f64::from(level.directional_factor((-v).as_vec3()));
+    let chance = |s: &ViewSample| match s.sigma {
+        [w, f] if w > 0.0 && f > 0.0 && !shown.is_empty() => {
+            let a = f64::from(level.interpolate(shown, (s.p - origin) / level.cell)) * factor;
+            f / (a + f)
+        }
+        sigma => foliage_chance(sigma, wood),
+    };
     let weights: Vec<(DVec3, f64)> = march_view(level, origin, scale, o, v)
         .iter()
-        .map(|s| (s.p, s.weight * foliage_chance(s.sigma, wood)))
+        .map(|s| (s.p, s.weight * chance(s)))
         .collect();
     let total: f64 = weights.iter().map(|w| w.1).sum();
     if total <= 0.0 {
@@ -356,16 +370,17 @@ pub struct Sight {
 /// Bounds of the wood weight: a factor of 64 either way.
 const WOOD_WEIGHT: (f64, f64) = (1.0 / 64.0, 64.0);
 
-/// Each level's [`Sight`], fitted to `mesh` (`is_foliage` per triangle). `origin` is the
-/// grid's corner, `extinction_scale` turns density into extinction. A tree with only one part
-/// gets the neutral weight 1; one without foliage, self-shadowing 1.
+/// Each level's [`Sight`], fitted to `mesh` (`is_foliage` per triangle), and where the tree
+/// has both parts each level's [`wood_shown`] (empty otherwise). `origin` is the grid's
+/// corner, `extinction_scale` turns density into extinction. A tree with only one part gets
+/// the neutral weight 1; one without foliage, self-shadowing 1.
 pub fn fit_sight(
     mesh: &Mesh,
     is_foliage: &[bool],
     levels: &[Level],
     origin: DVec3,
     extinction_scale: f64,
-) -> Vec<Sight> {
+) -> (Vec<Sight>, Vec<Vec<f32>>) {
     let tracer = MeshTracer::new(mesh);
     let coarsest = levels.last().expect("a mip chain has levels");
     let hi = origin + DVec3::from(coarsest.dims.map(|d| d as f64)) * coarsest.cell;
@@ -383,13 +398,19 @@ pub fn fit_sight(
         (origin, extinction_scale),
         &rays,
     );
+    let both = is_foliage.iter().any(|&f| f) && is_foliage.iter().any(|&f| !f);
+    let shown = if both {
+        wood_shown(&tracer, is_foliage, levels, origin)
+    } else {
+        vec![Vec::new(); levels.len()]
+    };
     let factors = if is_foliage.iter().any(|&f| f) {
         self_shadow_factors(
             &tracer,
             (&mesh.corners(), is_foliage),
             levels,
             (origin, extinction_scale),
-            &weights,
+            (&weights, &shown),
             (&rays, &mesh_rays),
         )
     } else {
@@ -408,7 +429,7 @@ pub fn fit_sight(
             eprintln!("level {n}: {s:?} (self-shadowing at {SELF_SHADOW_ANGLES:?} degrees)");
         }
     }
-    sights
+    (sights, shown)
 }
 
 /// The wood weight of every level: the wood's share of what the views see in the mesh (first
@@ -469,6 +490,124 @@ fn wood_weights(
             bisect_log(share, target, WOOD_WEIGHT)
         })
         .collect()
+}
+
+/// Spacing of the rays that find which part the mesh shows first in each cell, in level-0
+/// cells: four rays a view through every level-0 cell's face.
+const SHOWN_RAY_SPACING: f64 = 0.5;
+/// Hits the mesh gives a cell's share before its own count outweighs the prior (the share a
+/// uniform mixture of the cell's densities would show).
+const SHOWN_PRIOR: f64 = 4.0;
+/// Most surfaces one ray walks through (a hostile mesh of stacked cards has millions).
+const SHOWN_MAX_HITS: usize = 1024;
+
+/// Every level's wood density as it counts in choosing which part scatters (texel 1.7): per
+/// cell, the density times the weight that makes a uniform mixture of the cell's two densities
+/// show wood first as often as the mesh does within the cell. A ray meeting a cell of wood of
+/// extinction `a` and foliage `b` mixed uniformly meets wood first with chance `a / (a + b)`,
+/// wherever it enters; in the mesh the leaves sit outside the branches they grow on, and a
+/// crown's cell shows its leaves and hides its twigs. For each of the 12 views, rays one to a
+/// half level-0 cell walk every surface of the mesh in turn; the first surface a ray meets in a
+/// cell counts for that cell's share `h`, on every level. The weight `w` solves
+/// `w a / (w a + b) = h`, with `h` drawn towards `a / (a + b)` by [`SHOWN_PRIOR`] hits and `w`
+/// within [`WOOD_WEIGHT`]; a cell of one part keeps its density (the choice is certain).
+///
+/// Unlike a level's single weight fitted to what whole views of the lone tree see, the share is
+/// the cell's own: the same wherever the cell stands in a forest, whose neighbours hide the
+/// trunk and the crown's underside that a lone tree's views show.
+pub fn wood_shown(
+    tracer: &MeshTracer,
+    is_foliage: &[bool],
+    levels: &[Sparse],
+    origin: DVec3,
+) -> Vec<Vec<f32>> {
+    let coarsest = levels.last().expect("a mip chain has levels");
+    let hi = origin + DVec3::from(coarsest.dims.map(|d| d as f64)) * coarsest.cell;
+    let spacing = levels[0].cell * SHOWN_RAY_SPACING;
+    // Per level and cell: first hits on wood, on foliage.
+    let mut hits: Vec<Vec<[u32; 2]>> = levels
+        .iter()
+        .map(|l| vec![[0; 2]; l.cell_count()])
+        .collect();
+    for (k, v) in views().into_iter().enumerate() {
+        let rays = super::calibrate::lattice(origin, hi, -v, spacing, 1000 + k as u64);
+        let firsts: Vec<Vec<(u8, u32, bool)>> = rays
+            .par_iter()
+            .enumerate()
+            .map(|(i, &(o, t_end))| {
+                let key = rng::hash3(1000 + k as u64, i as u64, rng::purpose::CALIBRATION);
+                first_in_cells(tracer, is_foliage, levels, origin, (o, -v, t_end), key)
+            })
+            .collect();
+        for (n, cell, foliage) in firsts.into_iter().flatten() {
+            hits[n as usize][cell as usize][usize::from(foliage)] += 1;
+        }
+    }
+    levels
+        .iter()
+        .zip(&hits)
+        .map(|(level, hits)| {
+            let [wood, foliage] = &level.density;
+            (0..level.cell_count())
+                .map(|i| shown_density(wood[i], foliage[i], hits[i]))
+                .collect()
+        })
+        .collect()
+}
+
+/// A cell's shown wood density from its densities and the mesh's first hits in it
+/// ([`wood_shown`]).
+fn shown_density(wood: f32, foliage: f32, [hw, hf]: [u32; 2]) -> f32 {
+    if wood <= 0.0 || foliage <= 0.0 {
+        return wood;
+    }
+    let (a, b) = (f64::from(wood), f64::from(foliage));
+    let uniform = a / (a + b);
+    let h = (f64::from(hw) + SHOWN_PRIOR * uniform) / (f64::from(hw + hf) + SHOWN_PRIOR);
+    let w = (h * b / ((1.0 - h) * a)).clamp(WOOD_WEIGHT.0, WOOD_WEIGHT.1);
+    (w * a) as f32
+}
+
+/// The first surface the ray `(o, d, t_end)` meets in each cell of each level it crosses, as
+/// (level, cell, whether foliage): a straight ray crosses a cell once, so a hit in another
+/// cell than the hit before it is that cell's first.
+fn first_in_cells(
+    tracer: &MeshTracer,
+    is_foliage: &[bool],
+    levels: &[Sparse],
+    origin: DVec3,
+    (o, d, t_end): (DVec3, DVec3, f64),
+    key: u64,
+) -> Vec<(u8, u32, bool)> {
+    let ray = Ray {
+        origin: o.as_vec3(),
+        dir: d.as_vec3(),
+    };
+    let mut last = vec![u32::MAX; levels.len()];
+    let mut out = Vec::new();
+    let mut t = 0.0f32;
+    for _ in 0..SHOWN_MAX_HITS {
+        let Some((tri, hit)) = tracer.nearest(&ray, t, t_end as f32, key) else {
+            break;
+        };
+        t = hit.t;
+        let p = o + d * f64::from(hit.t);
+        for (n, level) in levels.iter().enumerate() {
+            let c = (p - origin) / level.cell;
+            let cell = c.floor();
+            let inside = (0..3).all(|a| cell[a] >= 0.0 && (cell[a] as usize) < level.dims[a]);
+            if !inside {
+                continue;
+            }
+            let [x, y, z] = [cell.x as usize, cell.y as usize, cell.z as usize];
+            let index = (x + level.dims[0] * (y + level.dims[1] * z)) as u32;
+            if index != last[n] {
+                last[n] = index;
+                out.push((n as u8, index, is_foliage[tri as usize]));
+            }
+        }
+    }
+    out
 }
 
 /// Suns per view and angle, turned about the view direction a quarter apart (one at angle 0,
@@ -536,8 +675,8 @@ const ROWS: usize = BY_VIEW + EYE_HEIGHTS.len() * SUN_TURNS.len();
 const BY_VIEW: usize = 1 + SUN_HEIGHTS.len();
 
 /// Every level's self-shadowing factors (pooled, per sun height, per eye height and sun turn),
-/// one per angle of [`SELF_SHADOW_ANGLES`], with the levels' wood weights deciding which
-/// samples are foliage.
+/// one per angle of [`SELF_SHADOW_ANGLES`], with the levels' shown wood (or, where a level
+/// has none, its wood weight) deciding which samples are foliage, as the renderer decides.
 /// Each view's rays, the leaves they meet in the mesh and the points drawn in each level serve
 /// every angle and sun.
 fn self_shadow_factors(
@@ -545,7 +684,7 @@ fn self_shadow_factors(
     mesh: (&[[Vec3; 3]], &[bool]),
     levels: &[Sparse],
     (origin, scale): (DVec3, f64),
-    wood_weights: &[f64],
+    (wood_weights, shown): (&[f64], &[Vec<f32>]),
     (rays, mesh_rays): (Lattice, Lattice),
 ) -> Vec<SelfShadow> {
     let views = views();
@@ -563,7 +702,13 @@ fn self_shadow_factors(
                         .enumerate()
                         .flat_map_iter(|(i, &(o, _))| {
                             let key = rng::hash3(k as u64, i as u64, rng::purpose::SELF_SHADOW);
-                            texture_points(level, (origin, scale, wood_weights[n]), o, v, key)
+                            texture_points(
+                                level,
+                                (origin, scale, wood_weights[n], &shown[n]),
+                                o,
+                                v,
+                                key,
+                            )
                         })
                         .collect()
                 })
@@ -644,6 +789,61 @@ fn self_shadow_factors(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A cell's shown wood: the uniform mixture's where the mesh agrees with it or where no ray
+    /// met the cell, less where its leaves hide its wood, more where its wood is outside, and
+    /// the density itself where the cell holds one part.
+    #[test]
+    fn a_cells_shown_wood_follows_its_first_hits() {
+        let (a, b) = (1.0f32, 3.0f32);
+        let uniform = [100, 300];
+        assert!((shown_density(a, b, uniform) - a).abs() < 1e-6);
+        assert_eq!(shown_density(a, b, [0, 0]), a);
+        let hidden = shown_density(a, b, [1, 399]);
+        assert!(hidden < 0.05 * a && hidden >= a / 64.0, "{hidden}");
+        let outside = shown_density(a, b, [399, 1]);
+        assert!(outside > 20.0 * a && outside <= 64.0 * a, "{outside}");
+        // The share it gives is the mesh's, drawn towards the mixture's by four hits.
+        let w = f64::from(shown_density(a, b, [30, 10]));
+        let h = (30.0 + SHOWN_PRIOR * 0.25) / (40.0 + SHOWN_PRIOR);
+        assert!((w / (w + 3.0) - h).abs() < 1e-6, "{w}");
+        assert_eq!(shown_density(0.0, b, [5, 5]), 0.0);
+        assert_eq!(shown_density(a, 0.0, [5, 5]), a);
+    }
+
+    /// Wood inside a closed shell of leaves in one cell is never met first: the cell shows
+    /// (almost) no wood; turned inside out, (almost) only wood. Either way on every level.
+    #[test]
+    fn wood_behind_leaves_is_not_shown() {
+        use crate::import::AlphaMode;
+        use crate::render::mesh_tests::{cuboid, material, quads};
+        let outer = cuboid(Vec3::splat(0.3), Vec3::splat(1.7));
+        let inner = cuboid(Vec3::splat(0.7), Vec3::splat(1.3));
+        let mut level = Level::empty([1, 1, 1], 2.0);
+        level.density = [vec![1.0], vec![1.0]];
+        let mut coarse = Level::empty([1, 1, 1], 4.0);
+        coarse.density = [vec![1.0], vec![1.0]];
+        let levels = [level, coarse];
+        let levels: Vec<Sparse> = levels.iter().map(Sparse::new).collect();
+        let mesh = quads(
+            &[outer, inner].concat(),
+            material("part", 0.5, 1.0, AlphaMode::Opaque),
+        );
+        let tracer = MeshTracer::new(&mesh);
+        for outer_is_foliage in [true, false] {
+            let is_foliage: Vec<bool> = (0..24).map(|t| (t < 12) == outer_is_foliage).collect();
+            let shown = wood_shown(&tracer, &is_foliage, &levels, DVec3::ZERO);
+            for s in shown {
+                let s = s[0];
+                // The uniform mixture's is 1; the prior's four hits keep it off the bounds.
+                if outer_is_foliage {
+                    assert!(s < 0.1, "hidden wood shows: {s}");
+                } else {
+                    assert!(s > 10.0, "wood outside is hidden: {s}");
+                }
+            }
+        }
+    }
 
     /// The fitted factor gives the target visibility, and the ends clamp.
     #[test]

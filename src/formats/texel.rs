@@ -19,7 +19,7 @@ pub const MAGIC: &[u8; 8] = b"\x89TEXEL\r\n";
 pub const MAJOR: u16 = 1;
 /// The newest minor version, which this writes where a texture needs it and reads with every
 /// older one (`formats/texel.md`, *Versions*).
-pub const MINOR: u16 = 6;
+pub const MINOR: u16 = 7;
 
 /// Limits a reader enforces before it allocates anything a header asks for.
 const MAX_LEVELS: usize = 16;
@@ -242,6 +242,23 @@ fn wood_normals_channel() -> ChannelHeader {
     }
 }
 
+/// The channel 1.7 appends: the wood's density as it counts in choosing which part of a
+/// sample scatters (`Level::wood_shown`), in the density's unit, as F32. Optional for readers
+/// (none: the level's `wood_weight` times the wood's density).
+const WOOD_SHOWN: &str = "shown_wood";
+
+fn wood_shown_channel(model: DensityModel) -> ChannelHeader {
+    ChannelHeader {
+        name: WOOD_SHOWN.to_string(),
+        ..v1_channels(model).swap_remove(0)
+    }
+}
+
+/// Whether a texture carries the wood's shown density (every level or none).
+fn has_wood_shown(texel: &Texel) -> bool {
+    texel.levels.iter().any(|l| !l.wood_shown.is_empty())
+}
+
 /// Whether a texture carries the wood's normal moments (every level or none).
 fn has_wood_normals(texel: &Texel) -> bool {
     texel.levels.iter().any(|l| !l.wood_normals.is_empty())
@@ -263,6 +280,9 @@ fn channels(texel: &Texel) -> Vec<ChannelHeader> {
     }
     if has_wood_normals(texel) {
         channels.push(wood_normals_channel());
+    }
+    if has_wood_shown(texel) {
+        channels.push(wood_shown_channel(texel.info.density_model));
     }
     channels
 }
@@ -300,6 +320,19 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
         return Err(TexelError::Unwritable(format!(
             "wood normals of {} cells in a level of {}",
             l.wood_normals.len(),
+            l.cell_count()
+        )));
+    }
+    // So is the wood's shown density.
+    if has_wood_shown(texel)
+        && let Some(l) = texel
+            .levels
+            .iter()
+            .find(|l| l.wood_shown.len() != l.cell_count())
+    {
+        return Err(TexelError::Unwritable(format!(
+            "shown wood of {} cells in a level of {}",
+            l.wood_shown.len(),
             l.cell_count()
         )));
     }
@@ -423,40 +456,45 @@ fn parts(texel: &Texel) -> Parts {
                     .flat_map(|m| m.to_le_bytes()),
             );
         }
+        if has_wood_shown(texel) {
+            payload.extend(level.wood_shown.iter().flat_map(|v| v.to_le_bytes()));
+        }
     }
     // A texture whose self-shadowing is one row for every sun height is the file it was
-    // before 1.5, byte for byte, and one without rows by view the file it was before 1.6.
-    let extension6 = texel
-        .levels
-        .iter()
-        .any(|l| l.self_shadow.by_view.is_some())
-        .then(|| HeaderV1_6 {
-            self_shadow_by_view: texel
-                .levels
-                .iter()
-                .map(|l| {
-                    let s = &l.self_shadow;
-                    s.by_view
-                        .unwrap_or([[s.pooled; SUN_TURNS.len()]; EYE_HEIGHTS.len()])
-                })
-                .collect(),
-        });
-    let extension5 = texel
-        .levels
-        .iter()
-        .any(|l| l.self_shadow != SelfShadow::uniform(l.self_shadow.pooled))
-        .then(|| HeaderV1_5 {
-            self_shadow_by_height: texel
-                .levels
-                .iter()
-                .map(|l| l.self_shadow.by_height)
-                .collect(),
-        });
+    // before 1.5, byte for byte, and one without rows by view the file it was before 1.6;
+    // a 1.7 file (shown wood) has both fields, as its minor version says.
+    let extension6 = (has_wood_shown(texel)
+        || texel.levels.iter().any(|l| l.self_shadow.by_view.is_some()))
+    .then(|| HeaderV1_6 {
+        self_shadow_by_view: texel
+            .levels
+            .iter()
+            .map(|l| {
+                let s = &l.self_shadow;
+                s.by_view
+                    .unwrap_or([[s.pooled; SUN_TURNS.len()]; EYE_HEIGHTS.len()])
+            })
+            .collect(),
+    });
+    let extension5 = (extension6.is_some()
+        || texel
+            .levels
+            .iter()
+            .any(|l| l.self_shadow != SelfShadow::uniform(l.self_shadow.pooled)))
+    .then(|| HeaderV1_5 {
+        self_shadow_by_height: texel
+            .levels
+            .iter()
+            .map(|l| l.self_shadow.by_height)
+            .collect(),
+    });
     Parts {
         header,
         extension,
         extension2,
-        minor: if extension6.is_some() {
+        minor: if has_wood_shown(texel) {
+            7
+        } else if extension6.is_some() {
             6
         } else if extension5.is_some() {
             5
@@ -699,6 +737,7 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
         leaves: leaves_slot,
         solids: solid_slots,
         wood_normals: wood_normals_slot,
+        wood_shown: wood_shown_slot,
     } = channel_slots(&header)?;
     let payload = opened.payload()?;
 
@@ -741,6 +780,7 @@ pub fn decode_with(bytes: &[u8], limits: &Limits) -> Result<Texel, TexelError> {
             directional: fits.directional[index],
             self_shadow: fits.self_shadow[index],
             wood_weight: fits.wood_weight[index],
+            wood_shown: wood_shown_slot.map_or_else(Vec::new, |slot| f32s(bytes_of(slot))),
             solid: match solid_slots {
                 // A level whose solids are all 0 has none, as the bake leaves it.
                 Some([w, f]) => {
@@ -770,11 +810,13 @@ struct Slots {
     leaves: Option<usize>,
     solids: Option<[usize; 2]>,
     wood_normals: Option<usize>,
+    wood_shown: Option<usize>,
 }
 
 /// Where each channel the reader uses sits in the header's table: the six required ones (in
 /// [`v1_channels`] order), each checked for its layout, (1.2) the optional leaf moments,
-/// (1.3) the optional solids, both parts or neither, and (1.4) the optional wood moments.
+/// (1.3) the optional solids, both parts or neither, (1.4) the optional wood moments and
+/// (1.7) the optional shown wood.
 fn channel_slots(header: &Header) -> Result<Slots, TexelError> {
     let find = |name: &str| header.channels.iter().position(|ch| ch.name == name);
     let layout = |i: usize, want: &ChannelHeader| {
@@ -825,11 +867,19 @@ fn channel_slots(header: &Header) -> Result<Slots, TexelError> {
         }
         None => None,
     };
+    let wood_shown = match find(WOOD_SHOWN) {
+        Some(i) => {
+            slots.push(layout(i, &wood_shown_channel(header.density_model))?);
+            Some(slots.len() - 1)
+        }
+        None => None,
+    };
     Ok(Slots {
         slots,
         leaves,
         solids,
         wood_normals,
+        wood_shown,
     })
 }
 
@@ -853,6 +903,16 @@ fn unorm(b: &[u8]) -> Vec<f32> {
 /// unit vectors.
 fn check_values(level: &Level) -> Result<(), TexelError> {
     let dims = level.dims;
+    if let Some((i, v)) = level
+        .wood_shown
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+    {
+        return Err(TexelError::Payload(format!(
+            "shown_wood: {v} at cell {i} in a level of {dims:?} cells is not a finite non-negative number"
+        )));
+    }
     for part in 0..2 {
         if let Some(v) = level.density[part]
             .iter()
@@ -1317,6 +1377,49 @@ pub(crate) mod tests {
         });
         let read = decode(&skipped).unwrap();
         assert!(read.levels.iter().all(|l| l.wood_normals.is_empty()));
+        assert_eq!(read.levels[0].density, t.levels[0].density);
+    }
+
+    #[test]
+    fn shown_wood_is_written_as_1_7_and_read_back() {
+        let mut t = sample_texel(7);
+        for l in &mut t.levels {
+            l.wood_shown = l.density[0].iter().map(|d| 0.25 * d).collect();
+            // A bake writes it for trees with foliage, whose self-shadowing has rows by view
+            // (a 1.7 header has their field).
+            l.self_shadow.by_view =
+                Some([[l.self_shadow.pooled; SUN_TURNS.len()]; EYE_HEIGHTS.len()]);
+        }
+        let bytes = encode(&t).unwrap();
+        assert_eq!(minor_of(&bytes), 7);
+        assert_eq!(decode(&bytes).unwrap(), t);
+        let names: Vec<String> = parts(&t)
+            .header
+            .channels
+            .into_iter()
+            .map(|c| c.name)
+            .collect();
+        assert_eq!(names.last().map(String::as_str), Some("shown_wood"));
+        // A level without it is refused by the writer, not written short.
+        let mut bad = t.clone();
+        bad.levels[1].wood_shown.clear();
+        let e = encode(&bad).unwrap_err().to_string();
+        assert!(e.contains("shown wood of 0 cells"), "{e}");
+        // Nor is a negative one written.
+        let mut bad = t.clone();
+        bad.levels[0].wood_shown[0] = -1.0;
+        let e = encode(&bad).unwrap_err().to_string();
+        assert!(e.contains("shown_wood: -1 at cell 0"), "{e}");
+        // A reader of 1.6 (one that skips the channel) weighs the wood by the level's weight.
+        let skipped = forge(&t, |p| {
+            for c in &mut p.header.channels {
+                if c.name == "shown_wood" {
+                    c.name = "shown_other".into();
+                }
+            }
+        });
+        let read = decode(&skipped).unwrap();
+        assert!(read.levels.iter().all(|l| l.wood_shown.is_empty()));
         assert_eq!(read.levels[0].density, t.levels[0].density);
     }
 

@@ -67,8 +67,13 @@ pub struct LevelSummary {
     pub self_shadow: [f32; 6],
     pub self_shadow_by_sun_height: [[f32; 6]; crate::volume::SUN_HEIGHTS.len()],
     pub self_shadow_by_view: Option<crate::volume::ByView>,
-    /// The weight on the wood's extinction in choosing which part scatters.
+    /// The weight on the wood's extinction in choosing which part scatters (what readers
+    /// before texel 1.7 use).
     pub wood_weight: f32,
+    /// Where the level has the wood's shown density per cell (texel 1.7): the 10th, 50th and
+    /// 90th percentiles of its weight (shown over stored density) over the cells holding both
+    /// parts; `None` where it has none, or no such cell.
+    pub wood_shown: Option<[f32; 3]>,
     /// Where the level draws solids (texel 1.3): the share of its cells whose centre is
     /// inside them, full foliage; `None` where it draws none.
     pub solid: Option<f64>,
@@ -178,6 +183,7 @@ fn level_summary(l: &Level) -> LevelSummary {
         self_shadow_by_sun_height: l.self_shadow.by_height,
         self_shadow_by_view: l.self_shadow.by_view,
         wood_weight: l.wood_weight,
+        wood_shown: shown_percentiles(l),
         factor_axes: [Vec3::X, Vec3::Y, Vec3::Z].map(|w| l.directional_factor(w)),
         solid: l.has_solid().then(|| {
             let inside = (0..l.cell_count())
@@ -320,11 +326,20 @@ fn write_grid(o: &mut String, s: &Summary) {
             .join(" ")
     };
     for (n, l) in s.levels.iter().enumerate() {
+        let shown = match l.wood_shown {
+            Some(p) => format!(
+                "wood shown x {} / {} / {} per cell, 10th / 50th / 90th percentile; x {} to 1.6",
+                number(p[0], 2),
+                number(p[1], 2),
+                number(p[2], 2),
+                number(l.wood_weight, 2)
+            ),
+            None => format!("wood shown x {}", number(l.wood_weight, 2)),
+        };
         let _ = writeln!(
             o,
-            "              level {n}: {}   (wood shown x {})",
+            "              level {n}: {}   ({shown})",
             row(&l.self_shadow),
-            number(l.wood_weight, 2)
         );
         if l.self_shadow_by_sun_height
             .iter()
@@ -462,4 +477,19 @@ fn write_provenance(o: &mut String, s: &Summary) {
             hex(&src.sha256)
         );
     }
+}
+
+/// The 10th, 50th and 90th percentiles of a level's per-cell wood weight (shown over stored
+/// wood density) over the cells holding both parts: `None` without the channel or such cells.
+fn shown_percentiles(l: &Level) -> Option<[f32; 3]> {
+    let [wood, foliage] = &l.density;
+    let mut w: Vec<f32> = (0..l.wood_shown.len())
+        .filter(|&i| wood[i] > 0.0 && foliage[i] > 0.0)
+        .map(|i| l.wood_shown[i] / wood[i])
+        .collect();
+    if w.is_empty() {
+        return None;
+    }
+    w.sort_by(f32::total_cmp);
+    Some([0.1, 0.5, 0.9].map(|q| w[((w.len() - 1) as f32 * q).round() as usize]))
 }

@@ -579,6 +579,34 @@ fn texel_level_value_files(base: &Texel, add: &mut Add) {
         }),
         "channel normals_wood has 12 x Unorm16",
     );
+    // (1.7) The wood's shown density, checked as the densities are.
+    let with_shown = |edit: &dyn Fn(&mut Texel)| {
+        let mut t = base.clone();
+        for level in &mut t.levels {
+            level.wood_shown = level.density[0].clone();
+        }
+        edit(&mut t);
+        t
+    };
+    add(
+        "shown-wood-negative",
+        texel::forge(&with_shown(&|t| t.levels[0].wood_shown[3] = -2.0), |_| {}),
+        "shown_wood: -2 at cell 3",
+    );
+    add(
+        "shown-wood-channel-layout",
+        // The same bytes per cell (4) as 2 x Unorm16: only the layout check can refuse it.
+        texel::forge(&with_shown(&|_| {}), |p| {
+            let ch = p
+                .header
+                .channels
+                .last_mut()
+                .expect("the shown wood's channel");
+            ch.components = 2;
+            ch.encoding = texel::Encoding::Unorm16;
+        }),
+        "channel shown_wood has 2 x Unorm16",
+    );
 }
 
 fn instances_files(valid: &[u8], files: &mut Vec<InvalidFile>) {

@@ -7,8 +7,8 @@
 //! sigma is the sum of the extinctions of every instance containing the point (equation 4);
 //! S is the paper's equation (3) with I(t) the sun's light times the transmittance towards the
 //! sun through every texture and the terrain (equation 2). At each sample one part of the mix
-//! scatters, chosen by its share of the extinction (the wood's weighted by the level's wood
-//! weight, so a coarse cell shows its trunk no more than the mesh does): wood as a surface on
+//! scatters, chosen by its share of the extinction (the wood's as its cells show it, so a
+//! cell shows its wood no more than the mesh does within it): wood as a surface on
 //! its density gradient, its shadow ray leaving the surface layer, so that an opaque volume
 //! shades exactly like a surface; foliage as a cloud of two-sided leaves (`render::leaves`),
 //! its shadow ray leaving the leaf and crossing the leaf's own tree with the level's
@@ -359,8 +359,9 @@ impl RayDraws {
 }
 
 /// The light a sample sends towards the eye. One part of the mixture scatters it, chosen by
-/// its share of the extinction, the wood's weighted by its level's wood weight (a coarse cell
-/// shows its trunk only as much as the mesh does, not wherever it mixes it with foliage): the
+/// its share of the extinction, the wood's as its cells show it (`Level::wood_shown`: a cell
+/// shows its wood first as often as the mesh does within it, not wherever it mixes it with
+/// foliage; the level's wood weight in files before texel 1.7): the
 /// wood as a surface on the wood's density gradient, the foliage as a cloud of leaves
 /// (`render::leaves`); each with its own shadow ray, counted in `shadow_rays`.
 fn scatter(
@@ -551,7 +552,7 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
             e.push((a.instance, s));
         }
         m.wood += wood;
-        m.wood_shown += wood * level.wood_weight;
+        m.wood_shown += a.extinction(f.wood_shown);
         m.foliage += foliage;
         m.albedo_wood += f.wood_albedo * wood;
         m.albedo_foliage += look.foliage_albedo * foliage;

@@ -12,7 +12,7 @@ use crate::bake::{self, BakeSettings};
 use crate::import::{AlphaMode, Material, Mesh};
 
 /// A mesh of quads (corners counter-clockwise seen from the side they face), one material.
-pub(super) fn quads(quads: &[[Vec3; 4]], material: Material) -> Mesh {
+pub(crate) fn quads(quads: &[[Vec3; 4]], material: Material) -> Mesh {
     let positions = quads.iter().flatten().copied().collect();
     let triangles: Vec<[u32; 3]> = (0..quads.len() as u32)
         .flat_map(|q| [[0, 1, 2], [0, 2, 3]].map(|t| t.map(|v| 4 * q + v)))
@@ -20,7 +20,7 @@ pub(super) fn quads(quads: &[[Vec3; 4]], material: Material) -> Mesh {
     Mesh::plain(positions, &triangles, material)
 }
 
-pub(super) fn material(name: &str, albedo: f32, alpha: f32, alpha_mode: AlphaMode) -> Material {
+pub(crate) fn material(name: &str, albedo: f32, alpha: f32, alpha_mode: AlphaMode) -> Material {
     Material {
         name: name.into(),
         base_color: Vec4::new(albedo, albedo, albedo, alpha),
@@ -30,7 +30,7 @@ pub(super) fn material(name: &str, albedo: f32, alpha: f32, alpha_mode: AlphaMod
 }
 
 /// The six outward faces of the box `lo`..`hi`.
-pub(super) fn cuboid(lo: Vec3, hi: Vec3) -> Vec<[Vec3; 4]> {
+pub(crate) fn cuboid(lo: Vec3, hi: Vec3) -> Vec<[Vec3; 4]> {
     let c =
         |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
     vec![

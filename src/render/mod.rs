@@ -42,7 +42,7 @@ mod hybrid_tests;
 #[cfg(test)]
 mod matte_tests;
 #[cfg(test)]
-mod mesh_tests;
+pub(crate) mod mesh_tests;
 #[cfg(test)]
 mod tests;
 
