@@ -500,15 +500,18 @@ const SHOWN_RAY_SPACING: f64 = 0.5;
 const SHOWN_PRIOR: f64 = 4.0;
 /// Most surfaces one ray walks through (a hostile mesh of stacked cards has millions).
 const SHOWN_MAX_HITS: usize = 1024;
+/// The first of the random streams that place the rays of [`wood_shown`], one per view: apart
+/// from the other fits' lattices, which are keyed by the view's index alone.
+const SHOWN_STREAM: u64 = 1000;
 
 /// Every level's wood density as it counts in choosing which part scatters (texel 1.7): per
 /// cell, the density times the weight that makes a uniform mixture of the cell's two densities
 /// show wood first as often as the mesh does within the cell. A ray meeting a cell of wood of
 /// extinction `a` and foliage `b` mixed uniformly meets wood first with chance `a / (a + b)`,
 /// wherever it enters; in the mesh the leaves sit outside the branches they grow on, and a
-/// crown's cell shows its leaves and hides its twigs. For each of the 12 views, rays one to a
-/// half level-0 cell walk every surface of the mesh in turn; the first surface a ray meets in a
-/// cell counts for that cell's share `h`, on every level. The weight `w` solves
+/// crown's cell shows its leaves and hides its twigs. For each of the 12 views, rays half a
+/// level-0 cell apart walk every surface of the mesh in turn; the first surface a ray meets in
+/// a cell counts for that cell's share `h`, on every level. The weight `w` solves
 /// `w a / (w a + b) = h`, with `h` drawn towards `a / (a + b)` by [`SHOWN_PRIOR`] hits and `w`
 /// within [`WOOD_WEIGHT`]; a cell of one part keeps its density (the choice is certain).
 ///
@@ -530,12 +533,13 @@ pub fn wood_shown(
         .map(|l| vec![[0; 2]; l.cell_count()])
         .collect();
     for (k, v) in views().into_iter().enumerate() {
-        let rays = super::calibrate::lattice(origin, hi, -v, spacing, 1000 + k as u64);
+        let stream = SHOWN_STREAM + k as u64;
+        let rays = super::calibrate::lattice(origin, hi, -v, spacing, stream);
         let firsts: Vec<Vec<(u8, u32, bool)>> = rays
             .par_iter()
             .enumerate()
             .map(|(i, &(o, t_end))| {
-                let key = rng::hash3(1000 + k as u64, i as u64, rng::purpose::CALIBRATION);
+                let key = rng::hash3(stream, i as u64, rng::purpose::CALIBRATION);
                 first_in_cells(tracer, is_foliage, levels, origin, (o, -v, t_end), key)
             })
             .collect();
