@@ -400,7 +400,7 @@ pub fn fit_sight(
     );
     let both = is_foliage.iter().any(|&f| f) && is_foliage.iter().any(|&f| !f);
     let shown = if both {
-        wood_shown(&tracer, is_foliage, levels, origin)
+        wood_shown(&tracer, is_foliage, levels, (origin, hi))
     } else {
         vec![Vec::new(); levels.len()]
     };
@@ -517,16 +517,18 @@ const SHOWN_STREAM: u64 = 1000;
 ///
 /// Unlike a level's single weight fitted to what whole views of the lone tree see, the share is
 /// the cell's own: the same wherever the cell stands in a forest, whose neighbours hide the
-/// trunk and the crown's underside that a lone tree's views show.
+/// trunk and the crown's underside that a lone tree's views show. `(origin, hi)` is the box
+/// the levels cover (the grid's corner and the coarsest level's far corner).
 pub fn wood_shown(
     tracer: &MeshTracer,
     is_foliage: &[bool],
     levels: &[Sparse],
-    origin: DVec3,
+    (origin, hi): (DVec3, DVec3),
 ) -> Vec<Vec<f32>> {
-    let coarsest = levels.last().expect("a mip chain has levels");
-    let hi = origin + DVec3::from(coarsest.dims.map(|d| d as f64)) * coarsest.cell;
-    let spacing = levels[0].cell * SHOWN_RAY_SPACING;
+    let Some(finest) = levels.first() else {
+        return Vec::new();
+    };
+    let spacing = finest.cell * SHOWN_RAY_SPACING;
     // Per level and cell: first hits on wood, on foliage.
     let mut hits: Vec<Vec<[u32; 2]>> = levels
         .iter()
@@ -836,7 +838,12 @@ mod tests {
         let tracer = MeshTracer::new(&mesh);
         for outer_is_foliage in [true, false] {
             let is_foliage: Vec<bool> = (0..24).map(|t| (t < 12) == outer_is_foliage).collect();
-            let shown = wood_shown(&tracer, &is_foliage, &levels, DVec3::ZERO);
+            let shown = wood_shown(
+                &tracer,
+                &is_foliage,
+                &levels,
+                (DVec3::ZERO, DVec3::splat(4.0)),
+            );
             for s in shown {
                 let s = s[0];
                 // The uniform mixture's is 1; the prior's four hits keep it off the bounds.

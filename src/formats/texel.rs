@@ -310,32 +310,8 @@ fn unorm16(v: f32) -> [u8; 2] {
 /// a reader would refuse: the header's rules and non-finite or negative values.
 pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
     let unwritable = |e: TexelError| TexelError::Unwritable(e.to_string());
-    // The wood's normals are a channel of every level or of none.
-    if has_wood_normals(texel)
-        && let Some(l) = texel
-            .levels
-            .iter()
-            .find(|l| l.wood_normals.len() != l.cell_count())
-    {
-        return Err(TexelError::Unwritable(format!(
-            "wood normals of {} cells in a level of {}",
-            l.wood_normals.len(),
-            l.cell_count()
-        )));
-    }
-    // So is the wood's shown density.
-    if has_wood_shown(texel)
-        && let Some(l) = texel
-            .levels
-            .iter()
-            .find(|l| l.wood_shown.len() != l.cell_count())
-    {
-        return Err(TexelError::Unwritable(format!(
-            "shown wood of {} cells in a level of {}",
-            l.wood_shown.len(),
-            l.cell_count()
-        )));
-    }
+    every_level_or_none(texel, "wood normals", |l| l.wood_normals.len())?;
+    every_level_or_none(texel, "shown wood", |l| l.wood_shown.len())?;
     let parts = parts(texel);
     validate(
         &parts.header,
@@ -349,6 +325,26 @@ pub fn encode(texel: &Texel) -> Result<Vec<u8>, TexelError> {
         check_values(level).map_err(unwritable)?;
     }
     Ok(assemble(&parts)?)
+}
+
+/// An optional channel (`len` values a level) is one of every level or of none: where some
+/// level has it, a level whose count is not its cell count is refused.
+fn every_level_or_none(
+    texel: &Texel,
+    what: &str,
+    len: impl Fn(&Level) -> usize,
+) -> Result<(), TexelError> {
+    if texel.levels.iter().all(|l| len(l) == 0) {
+        return Ok(());
+    }
+    match texel.levels.iter().find(|l| len(l) != l.cell_count()) {
+        Some(l) => Err(TexelError::Unwritable(format!(
+            "{what} of {} cells in a level of {}",
+            len(l),
+            l.cell_count()
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// A file's three parts before they are put in the container.
@@ -1368,16 +1364,22 @@ pub(crate) mod tests {
         let e = encode(&bad).unwrap_err().to_string();
         assert!(e.contains("wood normals of 0 cells"), "{e}");
         // A reader of 1.3 (one that skips the channel) draws the rest as before.
-        let skipped = forge(&t, |p| {
+        let read = read_without(&t, "normals_wood");
+        assert!(read.levels.iter().all(|l| l.wood_normals.is_empty()));
+        assert_eq!(read.levels[0].density, t.levels[0].density);
+    }
+
+    /// `t` as a reader that does not know the channel `name` reads it: the channel renamed, so
+    /// skipped as unknown.
+    fn read_without(t: &Texel, name: &str) -> Texel {
+        let skipped = forge(t, |p| {
             for c in &mut p.header.channels {
-                if c.name == "normals_wood" {
-                    c.name = "normals_other".into();
+                if c.name == name {
+                    c.name = format!("{name}_unknown");
                 }
             }
         });
-        let read = decode(&skipped).unwrap();
-        assert!(read.levels.iter().all(|l| l.wood_normals.is_empty()));
-        assert_eq!(read.levels[0].density, t.levels[0].density);
+        decode(&skipped).unwrap()
     }
 
     #[test]
@@ -1411,14 +1413,7 @@ pub(crate) mod tests {
         let e = encode(&bad).unwrap_err().to_string();
         assert!(e.contains("shown_wood: -1 at cell 0"), "{e}");
         // A reader of 1.6 (one that skips the channel) weighs the wood by the level's weight.
-        let skipped = forge(&t, |p| {
-            for c in &mut p.header.channels {
-                if c.name == "shown_wood" {
-                    c.name = "shown_other".into();
-                }
-            }
-        });
-        let read = decode(&skipped).unwrap();
+        let read = read_without(&t, "shown_wood");
         assert!(read.levels.iter().all(|l| l.wood_shown.is_empty()));
         assert_eq!(read.levels[0].density, t.levels[0].density);
     }

@@ -597,13 +597,15 @@ fn texel_level_value_files(base: &Texel, add: &mut Add) {
         "shown-wood-channel-layout",
         // The same bytes per cell (4) as 2 x Unorm16: only the layout check can refuse it.
         texel::forge(&with_shown(&|_| {}), |p| {
-            let ch = p
+            for ch in p
                 .header
                 .channels
-                .last_mut()
-                .expect("the shown wood's channel");
-            ch.components = 2;
-            ch.encoding = texel::Encoding::Unorm16;
+                .iter_mut()
+                .filter(|c| c.name == "shown_wood")
+            {
+                ch.components = 2;
+                ch.encoding = texel::Encoding::Unorm16;
+            }
         }),
         "channel shown_wood has 2 x Unorm16",
     );
