@@ -250,18 +250,29 @@ pub fn foliage_chance(sigma: [f64; 2], w: f64) -> f64 {
     }
 }
 
-/// Optical depth from `p` along `d` to the level's box, per unit extinction scale.
+/// Optical depth from a leaf at `p` along `d` to the level's box, per unit extinction scale,
+/// as the renderer marches the leaf's own tree (`render::sunlight`): on a level with solids
+/// the first cell is left out (the layer of surfaces the leaf stands for, a solid's surface
+/// and the rims on it), and a solid beyond stops the light whatever the factor (infinite).
+/// The factor scales the density alone: fitted with the solids' opacity inside the depth, it
+/// scaled that too (the Kenney trees' levels with solids read factors near 1e-18, which
+/// made their solids' extinction of 1e18 about one), and the renderer never does.
 fn depth_from(level: &Sparse, origin: DVec3, p: DVec3, d: DVec3, factor: f64) -> f64 {
     let (ts, step) = midpoints(level, origin, p, d);
     if step == 0.0 {
         return 0.0;
     }
-    ts.map(|t| {
-        let [wood, foliage] = extinction(level, origin, p + d * t, factor);
-        wood + foliage
-    })
-    .sum::<f64>()
-        * step
+    let solid = level.has_solid();
+    let mut depth = 0.0;
+    for t in ts.filter(|&t| !solid || t >= level.cell) {
+        let c = ((p + d * t - origin) / level.cell).as_vec3();
+        if solid && level.in_solid(c, 1.0) {
+            return f64::INFINITY;
+        }
+        let [wood, foliage] = level.density_at(c).map(|x| f64::from(x) * factor);
+        depth += wood + foliage;
+    }
+    depth * step
 }
 
 /// A point of a level's foliage that a view ray's light comes from: its weight, where it is,
@@ -335,7 +346,7 @@ fn texture_points(
 }
 
 /// The factor `k` in `[0, K_MAX]` with `sum W exp(-k tau) / sum W = visible`; 1 where there is
-/// nothing to fit.
+/// nothing to fit. A point behind a solid (`tau` infinite) is dark whatever `k`.
 fn fit(points: &[(f64, f64)], visible: f64) -> f64 {
     let total: f64 = points.iter().map(|p| p.0).sum();
     if total <= 0.0 || !visible.is_finite() {
@@ -344,6 +355,9 @@ fn fit(points: &[(f64, f64)], visible: f64) -> f64 {
     // The mean visibility and its slope, convex and decreasing in k.
     let mean = |k: f64| {
         let (m, slope) = points.iter().fold((0.0, 0.0), |(m, slope), &(w, tau)| {
+            if tau.is_infinite() {
+                return (m, slope);
+            }
             let e = w * (-k * tau).exp();
             (m + e, slope - tau * e)
         });

@@ -20,9 +20,10 @@ pub struct OwnTree {
     pub instance: u32,
     pub level: usize,
     pub factor: f32,
-    /// Marched even where shadows are cached, its solid left out for the first cell: the tree
-    /// of a ray leaving a solid's surface, whose grid of depths would blur the surface the
-    /// ray starts on and whose first cell the smoothed normal it left by may graze again, and
+    /// Marched even where shadows are cached, its first cell left out (solid and density):
+    /// the tree of a ray leaving a solid's surface, whose grid of depths would blur the
+    /// surface the ray starts on, whose first cell the smoothed normal it left by may graze
+    /// again, and whose rims (what the level set left out as density) lie on that surface; and
     /// of any sample of a tree with solids, which lies on a solid's surface where the level
     /// set left a rim out as density.
     pub exact: bool,
@@ -212,7 +213,8 @@ fn own_active(scene: &Scene, i: u32, local: &Ray, exit: f32, o: &OwnTree) -> Act
 
 /// `depth` plus the optical depth of the tree `a` between `enter` and `exit` along the ray,
 /// by a jittered march (the draws of `march_key`); stops adding once past `opaque`, and is
-/// infinite where a sample lies inside a solid (from `clear` along the ray on).
+/// infinite where a sample lies inside a solid. A tree with solids is read only from `clear`
+/// along the ray on (both its solid and its density).
 fn marched(
     scene: &Scene,
     a: &Active,
@@ -255,14 +257,19 @@ fn marched(
             exit
         };
         let ts = t + rng::unit(rng::hash3(march_key, u64::from(i), segment)) as f32 * (end - t);
-        let c = a.c0 + a.dc * ts;
-        if solid && ts >= clear && level.in_solid(c, foliage) {
-            return f32::INFINITY;
-        }
-        let d = occupancy.stencils.density_at(level, c);
-        depth += a.extinction(d[0] + foliage * d[1]) * (end - t);
-        if depth > opaque {
-            return depth;
+        // Within `clear` the ray is still in the layer of surfaces its sample stands for: the
+        // solid's surface and what of it the level set left out as density (a rim thinner
+        // than a cell, lying on that surface), neither of which shadows itself.
+        if !(solid && ts < clear) {
+            let c = a.c0 + a.dc * ts;
+            if solid && level.in_solid(c, foliage) {
+                return f32::INFINITY;
+            }
+            let d = occupancy.stencils.density_at(level, c);
+            depth += a.extinction(d[0] + foliage * d[1]) * (end - t);
+            if depth > opaque {
+                return depth;
+            }
         }
         segment += 1;
         t = end;

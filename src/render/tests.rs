@@ -1676,6 +1676,134 @@ fn a_solids_shadow_is_the_spheres_cached_or_exact() {
     assert!(checked > 300, "{checked}");
 }
 
+/// `solid_ball(radius)` with wood of extinction `sigma` in the cells whose centres lie
+/// between `from` and `to` metres outside the sphere (a rim on its surface, or a shell off
+/// it) and beyond `x_min` along x.
+fn ball_with_shell(radius: f64, (from, to): (f64, f64), x_min: f64, sigma: f32) -> Texel {
+    let mut t = solid_ball(radius);
+    let mut l = t.levels[0].clone();
+    let (dims, cell, origin) = (l.dims, l.cell, DVec3::from(t.info.origin));
+    for (i, d) in l.density[0].iter_mut().enumerate() {
+        let at = DVec3::new(
+            (i % dims[0]) as f64,
+            (i / dims[0] % dims[1]) as f64,
+            (i / (dims[0] * dims[1])) as f64,
+        );
+        let p = origin + (at + 0.5) * cell;
+        let out = p.length() - radius;
+        if out > from && out < to && p.x > x_min {
+            *d = sigma;
+        }
+    }
+    l.gradient[0] = sobel::gradient(&l.density[0], dims, cell);
+    t.levels = mip_chain(l, 1.0);
+    t
+}
+
+/// What a solid's level set leaves out as density (a rim thinner than a cell) lies on the
+/// solid's surface and does not shadow it: a ray leaving the ball's lit side towards the
+/// sun through its own tree passes the first cell's density as it passes the solid there;
+/// the same density a shell two cells off the surface still stops. (Rims that shadowed the
+/// surface they lie on left Kenney's forests of solid crowns 4-10 % dark, README *A solid's
+/// rims in its own light*.)
+#[test]
+fn a_solids_rims_do_not_shadow_the_surface_they_lie_on() {
+    let (radius, cell) = (1.3f64, 0.25f64);
+    let eye = Vec3::new(0.0, 0.0, 10.0);
+    let sun = Sun {
+        direction: Vec3::new(40f32.to_radians().sin(), 0.0, 40f32.to_radians().cos()),
+        irradiance: std::f32::consts::PI,
+    };
+    let light = |texel: Texel| {
+        let scene = lone_scene(texel, eye.as_dvec3(), sun);
+        // Points on the lit side, each leaving a tenth of a cell off the surface as a
+        // solid's shadow ray does (`light_solid`).
+        let (mut sum, mut count) = (0.0f32, 0);
+        for (k, (i, j)) in (0..9).flat_map(|i| (0..9).map(move |j| (i, j))).enumerate() {
+            let n =
+                (sun.direction + Vec3::new(i as f32 - 4.0, j as f32 - 4.0, 0.0) * 0.08).normalize();
+            let leave = n * (radius + 0.1 * cell) as f32;
+            sum += transmittance(
+                &scene,
+                Ray {
+                    origin: leave - eye,
+                    dir: sun.direction,
+                },
+                f32::INFINITY,
+                &March::default(),
+                &Caster {
+                    footprint: 0.0,
+                    key: k as u64,
+                    own: &[OwnTree {
+                        instance: 0,
+                        level: 0,
+                        factor: 1.0,
+                        exact: true,
+                    }],
+                    draw: &Draw::Texel,
+                },
+            );
+            count += 1;
+        }
+        sum / count as f32
+    };
+    let bare = light(solid_ball(radius));
+    let rim = light(ball_with_shell(radius, (0.0, 0.5 * cell), f64::MIN, 24.0));
+    let shell = light(ball_with_shell(
+        radius,
+        (2.0 * cell, 3.0 * cell),
+        f64::MIN,
+        6.0,
+    ));
+    assert!(
+        bare > 0.999,
+        "the bare ball shadows its own lit side: {bare}"
+    );
+    assert!(rim > 0.95, "the rim shadows the surface it lies on: {rim}");
+    assert!(shell < 0.5, "a shell off the surface lets through {shell}");
+}
+
+/// A solid's surface is shadowed by its own tree's density as the level's leaves are, by
+/// the level's self-shadowing: a shell of density beside the ball, which the eye's rays to
+/// the ball do not cross and the sun's rays from its lit side do (the sun 100 degrees from
+/// the eye), darkens that side at factor 1 and not at factor 0.
+#[test]
+fn a_solids_own_density_shadows_it_by_the_levels_self_shadowing() {
+    let radius = 1.3f64;
+    let eye = Vec3::new(0.0, 0.0, 10.0);
+    let sun = Sun {
+        direction: Vec3::new(100f32.to_radians().sin(), 0.0, 100f32.to_radians().cos()),
+        irradiance: std::f32::consts::PI,
+    };
+    let mean = |factor: f32| {
+        let mut texel = ball_with_shell(radius, (0.25, 0.6), 1.45, 6.0);
+        for l in &mut texel.levels {
+            l.self_shadow = SelfShadow::uniform([factor; 6]);
+        }
+        let scene = lone_scene(texel, eye.as_dvec3(), sun);
+        let (mut sum, mut count) = (0.0f32, 0);
+        for (k, (i, j)) in (0..5).flat_map(|i| (0..7).map(move |j| (i, j))).enumerate() {
+            let target = Vec3::new(0.6 + i as f32 * 0.08, j as f32 * 0.1 - 0.3, 0.0);
+            let r = radiance(
+                &scene,
+                (target - eye).normalize(),
+                0.0,
+                k as u64,
+                &March::default(),
+            );
+            assert!(r.transmittance == 0.0, "the ray to {target} went through");
+            sum += r.rgb[0];
+            count += 1;
+        }
+        sum / count as f32
+    };
+    let (free, shadowed) = (mean(0.0), mean(1.0));
+    assert!(
+        free > 0.0 && shadowed < 0.7 * free,
+        "factor 1 {shadowed}, factor 0 {free}"
+    );
+}
+
 /// A sample's wood is shaded as its own texture says: a texture without wood normals (baked
 /// before texel 1.4) keeps its gradient's normal beside one that has them, whose crown the
 /// ray crosses at the same point (the choice was once any texture's along the ray).
