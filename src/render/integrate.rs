@@ -777,8 +777,8 @@ fn light_tree(
 /// would blur the surface the ray starts on). Its own tree's density shadows it as it
 /// shadows the level's leaves, scaled by the level's self-shadowing: in a tree with solids
 /// that density is mostly the solids' rims, parts of the same closed surfaces, which the
-/// self-shadowing fit finds cast next to no shadow on the leaves (Kenney's trees: factors
-/// near 0); at full extinction they left the forests of such trees 4-10 % dark.
+/// self-shadowing fit finds cast next to no shadow on the leaves (the Kenney trees' levels
+/// with solids: 0); at full extinction they left the forests of such trees 4-10 % dark.
 fn light_solid(
     scene: &Scene,
     ray: Ray,

@@ -1704,8 +1704,8 @@ fn ball_with_shell(radius: f64, (from, to): (f64, f64), x_min: f64, sigma: f32) 
 /// solid's surface and does not shadow it: a ray leaving the ball's lit side towards the
 /// sun through its own tree passes the first cell's density as it passes the solid there;
 /// the same density a shell two cells off the surface still stops. (Rims that shadowed the
-/// surface they lie on left Kenney's forests of solid crowns 4-10 % dark, README *A solid's
-/// rims in its own light*.)
+/// surface they lie on left the real forests of models with solids 4-10 % dark, README *A
+/// solid's rims in its own light*.)
 #[test]
 fn a_solids_rims_do_not_shadow_the_surface_they_lie_on() {
     let (radius, cell) = (1.3f64, 0.25f64);
