@@ -619,8 +619,7 @@ fn first_in_cells(
             if !inside {
                 continue;
             }
-            let [x, y, z] = [cell.x as usize, cell.y as usize, cell.z as usize];
-            let index = (x + level.dims[0] * (y + level.dims[1] * z)) as u32;
+            let index = level.index(cell.x as usize, cell.y as usize, cell.z as usize) as u32;
             if index != last[n] {
                 last[n] = index;
                 out.push((n as u8, index, is_foliage[tri as usize]));

@@ -358,14 +358,20 @@ pub(crate) struct Parts {
     /// Where some level's self-shadowing depends on the eye's height and the sun's turn.
     pub(crate) extension6: Option<HeaderV1_6>,
     pub(crate) payload: Vec<u8>,
-    /// 6 where the header holds self-shadowing by eye height and sun turn, else 5 where it
-    /// holds it by sun height, else 4 where the payload holds the wood's normals, else 3 where
-    /// it holds solids, else 2.
+    /// 7 where the payload holds the shown wood, else 6 where the header holds self-shadowing
+    /// by eye height and sun turn, else 5 where it holds it by sun height, else 4 where the
+    /// payload holds the wood's normals, else 3 where it holds solids, else 2.
     pub(crate) minor: u16,
 }
 
 fn parts(texel: &Texel) -> Parts {
     let info = &texel.info;
+    // The optional channels, each of every level or none: asked once, not per level.
+    let (solids, wood_normals, wood_shown) = (
+        has_solids(texel),
+        has_wood_normals(texel),
+        has_wood_shown(texel),
+    );
     let header = Header {
         generator: info.generator.clone(),
         model_min: info.model_min,
@@ -434,7 +440,7 @@ fn parts(texel: &Texel) -> Parts {
             );
         }
         payload.extend(level.leaves.iter().flatten().flat_map(|m| m.to_le_bytes()));
-        if has_solids(texel) {
+        if solids {
             for part in 0..2 {
                 if level.has_solid() {
                     payload.extend(level.solid[part].iter().flat_map(|&v| unorm16(v)));
@@ -443,7 +449,7 @@ fn parts(texel: &Texel) -> Parts {
                 }
             }
         }
-        if has_wood_normals(texel) {
+        if wood_normals {
             payload.extend(
                 level
                     .wood_normals
@@ -452,26 +458,25 @@ fn parts(texel: &Texel) -> Parts {
                     .flat_map(|m| m.to_le_bytes()),
             );
         }
-        if has_wood_shown(texel) {
+        if wood_shown {
             payload.extend(level.wood_shown.iter().flat_map(|v| v.to_le_bytes()));
         }
     }
     // A texture whose self-shadowing is one row for every sun height is the file it was
     // before 1.5, byte for byte, and one without rows by view the file it was before 1.6;
     // a 1.7 file (shown wood) has both fields, as its minor version says.
-    let extension6 = (has_wood_shown(texel)
-        || texel.levels.iter().any(|l| l.self_shadow.by_view.is_some()))
-    .then(|| HeaderV1_6 {
-        self_shadow_by_view: texel
-            .levels
-            .iter()
-            .map(|l| {
-                let s = &l.self_shadow;
-                s.by_view
-                    .unwrap_or([[s.pooled; SUN_TURNS.len()]; EYE_HEIGHTS.len()])
-            })
-            .collect(),
-    });
+    let extension6 = (wood_shown || texel.levels.iter().any(|l| l.self_shadow.by_view.is_some()))
+        .then(|| HeaderV1_6 {
+            self_shadow_by_view: texel
+                .levels
+                .iter()
+                .map(|l| {
+                    let s = &l.self_shadow;
+                    s.by_view
+                        .unwrap_or([[s.pooled; SUN_TURNS.len()]; EYE_HEIGHTS.len()])
+                })
+                .collect(),
+        });
     let extension5 = (extension6.is_some()
         || texel
             .levels
@@ -488,15 +493,15 @@ fn parts(texel: &Texel) -> Parts {
         header,
         extension,
         extension2,
-        minor: if has_wood_shown(texel) {
+        minor: if wood_shown {
             7
         } else if extension6.is_some() {
             6
         } else if extension5.is_some() {
             5
-        } else if has_wood_normals(texel) {
+        } else if wood_normals {
             4
-        } else if has_solids(texel) {
+        } else if solids {
             3
         } else {
             2
