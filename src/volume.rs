@@ -528,6 +528,28 @@ impl Level {
             .map_or(0.0, |(idx, w)| (0..8).map(|k| data[idx[k]] * w[k]).sum())
     }
 
+    /// Each part's density as it counts in choosing which part scatters ([`Fetch::shown`]) at
+    /// `p` (cell units from the grid origin), where the level's cells show the wood `shown`:
+    /// what [`Level::fetch`] reads, for a bake that fits against it before the level holds
+    /// its channel. One-off: it works out the cells' chances ([`Level::wood_chances`]).
+    pub fn shown_at(&self, shown: &[f32], p: DVec3) -> [f32; 2] {
+        self.trilinear(p.as_vec3()).map_or([0.0; 2], |(idx, w)| {
+            let chances =
+                idx.map(|i| wood_chance(self.density[0][i], self.density[1][i], shown[i]));
+            let density = [0, 1].map(|part| self.weighted_density(part, &idx, &w));
+            let wood = (0..8).map(|k| chances[k] * w[k]).sum();
+            shown_of(density, Some(wood), self.wood_weight)
+        })
+    }
+
+    /// Each cell's extinction times its chance of showing wood ([`wood_chance`]), which
+    /// [`Level::fetch_at`] interpolates; empty where the level has no [`Level::wood_shown`].
+    pub fn wood_chances(&self) -> Vec<f32> {
+        (0..self.wood_shown.len())
+            .map(|i| wood_chance(self.density[0][i], self.density[1][i], self.wood_shown[i]))
+            .collect()
+    }
+
     /// Both parts' densities at `c` (cell units from the grid origin): what shadow rays need.
     #[inline]
     pub fn density_at(&self, c: Vec3) -> [f32; 2] {
@@ -549,18 +571,20 @@ impl Level {
     /// densities, and a part's gradient only where it has density; the wood's albedo likewise
     /// (the foliage's baked albedo is not read: a species' seasonal colour replaces it). Leaf
     /// moments, needed only by a lit leaf, are [`Level::foliage_leaves`].
-    #[inline]
+    /// One-off: it works out the cells' chances of showing wood, which a renderer keeps
+    /// ([`Occupancy::wood_chances`]).
     pub fn fetch(&self, c: Vec3) -> Fetch {
         match Axes::at(c, self.dims) {
-            Some(axes) => self.fetch_at(&axes),
+            Some(axes) => self.fetch_at(&axes, &self.wood_chances()),
             None => Fetch::default(),
         }
     }
 
     /// [`Level::fetch`] at the point `axes` were worked out for ([`Axes::at`], with this
-    /// level's dimensions).
+    /// level's dimensions), the cells' chances of showing wood `chances`
+    /// ([`Level::wood_chances`]).
     #[inline]
-    pub fn fetch_at(&self, axes: &Axes) -> Fetch {
+    pub fn fetch_at(&self, axes: &Axes, chances: &[f32]) -> Fetch {
         let (idx, w) = self.stencil(axes);
         let mut f = Fetch::default();
         for p in 0..2 {
@@ -580,15 +604,10 @@ impl Level {
             for k in 0..8 {
                 f.wood_albedo += Vec3::from(albedo[idx[k]]) * w[k];
             }
-            f.wood_shown = if f.density[1] <= 0.0 {
-                // The only part there: which part scatters is certain, whatever its weight.
-                f.density[0]
-            } else if self.wood_shown.is_empty() {
-                f.density[0] * self.wood_weight
-            } else {
-                (0..8).map(|k| self.wood_shown[idx[k]] * w[k]).sum()
-            };
         }
+        let wood = (f.density[0] > 0.0 && f.density[1] > 0.0 && !chances.is_empty())
+            .then(|| (0..8).map(|k| chances[idx[k]] * w[k]).sum());
+        f.shown = shown_of(f.density, wood, self.wood_weight);
         f
     }
 
@@ -726,6 +745,45 @@ impl Stencils {
     }
 }
 
+/// A cell's extinction times its chance of showing wood, `(a + b) s / (s + b)` for wood and
+/// foliage densities `a`, `b` and shown wood `s` ([`Level::wood_shown`]): a uniform mixture
+/// of `s` and `b` shows wood with chance `s / (s + b)`, what the mesh shows in the cell. A
+/// point weighs its cells' chances by the extinction each gives it (`formats/texel.md`, *Wood
+/// shown per cell*), so these interpolate. Interpolating `s` itself, as this renderer did
+/// before, let a trunk's cell, whose shown wood is up to 64 times its density, lend its wood
+/// to the leafy cells around it, where the mesh shows leaves: the fixture forest's coarse
+/// levels showed 1.4 (level 2) to 2.3 (level 3) times their mesh's wood light, and the
+/// foliage lost as much.
+#[inline]
+pub fn wood_chance(a: f32, b: f32, s: f32) -> f32 {
+    let chosen = s + b;
+    // A cell of neither part stands for nothing.
+    if chosen > 0.0 {
+        (a + b) * (s / chosen)
+    } else {
+        0.0
+    }
+}
+
+/// Each part's density as it counts in choosing which part scatters, at a point of densities
+/// `density`: the wood alone or the foliage alone where it is the only part; where both are,
+/// the extinction split by the interpolated [`wood_chance`]s (`wood`), or without them (files
+/// before texel 1.7) the wood weighted by the level's `wood_weight`.
+#[inline]
+fn shown_of(density: [f32; 2], wood: Option<f32>, wood_weight: f32) -> [f32; 2] {
+    match (density, wood) {
+        ([a, b], _) if a <= 0.0 || b <= 0.0 => [a.max(0.0), b.max(0.0)],
+        ([a, b], Some(wood)) => {
+            let sigma = a + b;
+            // Rounding may put the interpolated chances a hair beyond the extinction; the max
+            // also keeps an overflowed one (infinite less infinite) out of the choice.
+            let wood = wood.clamp(0.0, sigma);
+            [wood, (sigma - wood).max(0.0)]
+        }
+        ([a, b], None) => [a * wood_weight, b],
+    }
+}
+
 /// A level whose density queries skip empty space ([`Stencils`]).
 pub struct Sparse<'a> {
     pub level: &'a Level,
@@ -776,6 +834,8 @@ pub struct Occupancy {
     full: bool,
     /// Within occupied bricks, the cells a sample must read (`Stencils::holds`).
     pub stencils: Stencils,
+    /// The level's [`Level::wood_chances`], worked out once.
+    pub wood_chances: Vec<f32>,
 }
 
 impl Occupancy {
@@ -808,6 +868,7 @@ impl Occupancy {
             occupied,
             full,
             stencils: Stencils::of(level),
+            wood_chances: level.wood_chances(),
         }
     }
 
@@ -819,6 +880,7 @@ impl Occupancy {
             occupied: vec![true; dims.iter().product()],
             full: true,
             stencils: Stencils::full(level),
+            wood_chances: level.wood_chances(),
         }
     }
 
@@ -900,9 +962,11 @@ impl Occupancy {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Fetch {
     pub density: [f32; 2],
-    /// The wood's density as it counts in choosing which part scatters ([`Level::wood_shown`],
-    /// or the density times [`Level::wood_weight`]), read where both parts have density.
-    pub wood_shown: f32,
+    /// Each part's density as it counts in choosing which part scatters, `[wood, foliage]`:
+    /// where both parts are, their extinction split by the cells' chances of showing wood
+    /// ([`wood_chance`]), or in files before texel 1.7 the wood's density times
+    /// [`Level::wood_weight`] and the foliage's.
+    pub shown: [f32; 2],
     pub gradient: [Vec3; 2],
     pub wood_albedo: Vec3,
 }
@@ -1103,22 +1167,36 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
-    /// What counts of the wood in choosing which part scatters: the shown wood interpolated
-    /// where both parts have density (texel 1.7), the wood itself where it is the only part,
-    /// and the level's weight on the wood without the channel.
+    /// What counts of the wood in choosing which part scatters: where both parts have density
+    /// (texel 1.7), the shown wood that gives the cells' chances of showing wood weighted by
+    /// their extinction there; the wood itself where it is the only part; and the level's
+    /// weight on the wood without the channel.
     #[test]
     fn the_wood_shown_is_read_where_both_parts_are() {
         let mut l = Level::empty([2, 1, 1], 1.0);
         l.density = [vec![2.0, 2.0], vec![1.0, 0.0]];
         l.wood_weight = 3.0;
-        let at = |l: &Level, x: f32| l.fetch(Vec3::new(x, 0.5, 0.5));
+        let at = |l: &Level, x: f32| l.fetch(Vec3::new(x, 0.5, 0.5)).shown;
         // Between the centres: foliage 0.5, wood 2.
-        assert_eq!(at(&l, 1.0).wood_shown, 6.0);
-        assert_eq!(at(&l, 1.5).wood_shown, 2.0, "no foliage: the wood itself");
+        assert_eq!(at(&l, 1.0), [6.0, 0.5]);
+        assert_eq!(at(&l, 1.5), [2.0, 0.0], "no foliage: the wood itself");
         l.wood_shown = vec![0.5, 4.0];
-        assert_eq!(at(&l, 1.0).wood_shown, 2.25);
-        assert_eq!(at(&l, 0.5).wood_shown, 0.5);
-        assert_eq!(at(&l, 1.5).wood_shown, 2.0, "no foliage: the wood itself");
+        let chance = |[wood, foliage]: [f32; 2]| wood / (wood + foliage);
+        assert!(
+            (chance(at(&l, 0.5)) - 0.5 / 1.5).abs() < 1e-6,
+            "a cell's centre: its own"
+        );
+        // Halfway: the cells' chances 1/3 and 1, weighted by their extinction 3 and 2. The
+        // shown wood interpolated (2.25 against foliage 0.5) would give 0.82: the wood-only
+        // cell's weight lent to its leafy neighbour.
+        assert!((chance(at(&l, 1.0)) - 0.6).abs() < 1e-6);
+        assert_eq!(at(&l, 1.5), [2.0, 0.0], "no foliage: the wood itself");
+        // Cells that agree on the chance: the interpolated shown wood's.
+        l.density = [vec![2.0, 4.0], vec![1.0, 2.0]];
+        l.wood_shown = vec![1.0, 2.0];
+        assert!((chance(at(&l, 1.0)) - 1.5 / 3.0).abs() < 1e-6);
+        l.density[1] = vec![0.0, 0.0];
+        assert_eq!(at(&l, 1.0), [3.0, 0.0], "no foliage: the wood itself");
     }
 
     /// A factor is linear in the angle between eye and sun and in the sun's height between

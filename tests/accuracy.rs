@@ -511,7 +511,9 @@ fn tree_radiance_ratio(tree: &LoneTree, light: Light, lod_bias: f32) -> [f64; 4]
 /// by the eye's height and the sun's turn, 1.010 and 0.962 (level 2: 1.062 and 0.945); with
 /// stop 54's fit, 1.007 and 0.957 (1.055 and 0.935); with level 0 fitted ray by ray
 /// (`bake::refine`, stop 55), 1.002 and 0.962 (1.048 and 0.930), the bare tree at 60 degrees
-/// 1.009 (1.103).
+/// 1.009 (1.103). Since a point weighs its cells' chances of showing wood by their extinction
+/// (stop 59; the next test), the broadleaf at 20 degrees reads R / G / B 0.954 / 1.018 / 0.994
+/// at level 0 and 1.024 / 1.049 / 1.039 at level 2.
 #[test]
 fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
     for tree in [
@@ -545,6 +547,48 @@ fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
                     );
                 }
             }
+        }
+    }
+}
+
+/// A lone tree shows its wood as its mesh does on every level: the hue of its unshadowed light
+/// (red over green and blue over green, the frame's sums; the wood is brown, the leaves
+/// green), texel over mesh, levels 0 to 3, sun 30 degrees from the eye. A cell's chance of
+/// showing wood (`formats/texel.md`, *Wood shown per cell*) is its own; a sample between cells
+/// weighs their chances by the extinction each gives it. Interpolating the shown wood itself
+/// let a trunk's cell lend its weight (up to 64) to the leafy cells around it: the broadleaf's
+/// red over green read 0.953 / 0.964 / 1.022 / **1.141** of its mesh's on levels 0-3 (blue
+/// over green up to 1.052); so weighted 0.953 / 0.959 / 0.975 / 0.983 (0.994). The conifer,
+/// whose trunk hides in its cells, 0.99-1.00 either way. Level 0's 5 % is the fine levels'
+/// own (the fixture forest's wood light there is 0.80 of its mesh's).
+#[test]
+fn a_lone_tree_shows_as_much_wood_as_its_mesh_on_every_level() {
+    for tree in ["trees/conifer.glb", "trees/broadleaf.gltf"] {
+        let tree = LoneTree::new(tree);
+        let name = &tree.name;
+        let light = Light {
+            eye: FROM_SSW,
+            g: 30.0,
+            turn: 0.0,
+            shadows: false,
+            rays: ShadowRays::Exact,
+            shading: texel_forest::render::Shading::default(),
+        };
+        let mesh = tree.sums(light, Method::Mesh, 64, 0.0);
+        let hue = |s: [f64; 4]| [s[0] / s[1], s[2] / s[1]];
+        for level in 0..4 {
+            // The footprint here is 2^-4 of a finest cell (see the test above).
+            let texel = tree.sums(light, Method::Texel, 16, 4.0 + level as f32);
+            let [red, blue] = [0, 1].map(|c| hue(texel)[c] / hue(mesh)[c]);
+            println!(
+                "{name:<22} level {level}: hue texel / mesh, R/G {red:.3} B/G {blue:.3}, G {:.3}",
+                texel[1] / mesh[1]
+            );
+            assert!((red - 1.0).abs() < 0.06, "{name} level {level}: R/G {red}");
+            assert!(
+                (blue - 1.0).abs() < 0.06,
+                "{name} level {level}: B/G {blue}"
+            );
         }
     }
 }

@@ -304,11 +304,11 @@ fn texture_points(
     v: DVec3,
     key: u64,
 ) -> Vec<Drawn> {
-    let factor = scale * f64::from(level.directional_factor((-v).as_vec3()));
     let chance = |s: &ViewSample| match s.sigma {
         [w, f] if w > 0.0 && f > 0.0 && !shown.is_empty() => {
-            let a = f64::from(level.interpolate(shown, (s.p - origin) / level.cell)) * factor;
-            f / (a + f)
+            // Both parts scale alike with the directional factor: it cancels.
+            let [wood, foliage] = level.shown_at(shown, (s.p - origin) / level.cell);
+            f64::from(foliage) / f64::from(wood + foliage)
         }
         sigma => foliage_chance(sigma, wood),
     };

@@ -374,7 +374,7 @@ fn scatter(
 ) -> Vec3 {
     let (m, dir, sun) = (s.mix, s.dir, scene.sun);
     let (key, segment) = s.key;
-    let shown = m.wood_shown + m.foliage;
+    let shown = m.wood_shown + m.foliage_shown;
     let part = s.draws.part(segment);
     // Never foliage where there is none (a draw that rounds to 1 in f32 would pick it).
     let foliage_scatters = m.foliage > 0.0 && part as f32 * shown >= m.wood_shown;
@@ -482,8 +482,10 @@ fn scatter(
 struct Mix {
     wood: f32,
     foliage: f32,
-    /// The wood's extinction times each level's wood weight: how much of it shows.
+    /// Each part's extinction as it counts in choosing which part scatters (`Fetch::shown`):
+    /// the cells' chances of showing wood, weighed by their extinction.
     wood_shown: f32,
+    foliage_shown: f32,
     albedo_wood: Vec3,
     albedo_foliage: Vec3,
     gradient: Vec3,
@@ -509,6 +511,7 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
         wood: 0.0,
         foliage: 0.0,
         wood_shown: 0.0,
+        foliage_shown: 0.0,
         albedo_wood: Vec3::ZERO,
         albedo_foliage: Vec3::ZERO,
         gradient: Vec3::ZERO,
@@ -524,7 +527,8 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
         }
         // Most steps through a crown are in air: one bit says so without reading a cell. The
         // point's place in the grid is worked out once, for the bit and the cells' reads.
-        let stencils = &scene.occupancy[a.model as usize][a.level].stencils;
+        let occupancy = &scene.occupancy[a.model as usize][a.level];
+        let stencils = &occupancy.stencils;
         let Some(axes) = Axes::at(a.c0 + a.dc * ts, stencils.dims()) else {
             continue;
         };
@@ -539,7 +543,7 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
             m.solid.get_or_insert(k);
             continue;
         }
-        let f = level.fetch_at(&axes);
+        let f = level.fetch_at(&axes, &occupancy.wood_chances);
         let (wood, foliage) = (
             a.extinction(f.density[0]),
             a.extinction(look.foliage * f.density[1]),
@@ -552,7 +556,8 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
             e.push((a.instance, s));
         }
         m.wood += wood;
-        m.wood_shown += a.extinction(f.wood_shown);
+        m.wood_shown += a.extinction(f.shown[0]);
+        m.foliage_shown += a.extinction(look.foliage * f.shown[1]);
         m.foliage += foliage;
         m.albedo_wood += f.wood_albedo * wood;
         m.albedo_foliage += look.foliage_albedo * foliage;
