@@ -529,25 +529,37 @@ impl Level {
     }
 
     /// Each part's density as it counts in choosing which part scatters ([`Fetch::shown`]) at
-    /// `p` (cell units from the grid origin), where the level's cells show the wood `shown`:
-    /// what [`Level::fetch`] reads, for a bake that fits against it before the level holds
-    /// its channel. One-off: it works out the cells' chances ([`Level::wood_chances`]).
-    pub fn shown_at(&self, shown: &[f32], p: DVec3) -> [f32; 2] {
+    /// `p` (cell units from the grid origin), the cells' chances of showing wood `chances`
+    /// ([`Level::wood_chances`]): what [`Level::fetch`] reads, for a bake that fits against
+    /// it before the level holds its channel.
+    pub fn shown_at(&self, chances: &[f32], p: DVec3) -> [f32; 2] {
         self.trilinear(p.as_vec3()).map_or([0.0; 2], |(idx, w)| {
-            let chances =
-                idx.map(|i| wood_chance(self.density[0][i], self.density[1][i], shown[i]));
             let density = [0, 1].map(|part| self.weighted_density(part, &idx, &w));
-            let wood = (0..8).map(|k| chances[k] * w[k]).sum();
-            shown_of(density, Some(wood), self.wood_weight)
+            self.shown(density, chances, (&idx, &w))
         })
     }
 
-    /// Each cell's extinction times its chance of showing wood ([`wood_chance`]), which
-    /// [`Level::fetch_at`] interpolates; empty where the level has no [`Level::wood_shown`].
-    pub fn wood_chances(&self) -> Vec<f32> {
-        (0..self.wood_shown.len())
-            .map(|i| wood_chance(self.density[0][i], self.density[1][i], self.wood_shown[i]))
+    /// Each cell's extinction times its chance of showing wood ([`wood_chance`]) where the
+    /// cells show the wood `shown` ([`Level::wood_shown`], or a bake's before the level holds
+    /// it), which [`Level::fetch_at`] interpolates; empty where `shown` is.
+    pub fn wood_chances(&self, shown: &[f32]) -> Vec<f32> {
+        (0..shown.len())
+            .map(|i| wood_chance(self.density[0][i], self.density[1][i], shown[i]))
             .collect()
+    }
+
+    /// [`Fetch::shown`] at a point of densities `density` between the cells `idx` (trilinear
+    /// weights `w`): the cells' `chances` interpolated where both parts are there.
+    #[inline(always)]
+    fn shown(
+        &self,
+        density: [f32; 2],
+        chances: &[f32],
+        (idx, w): (&[usize; 8], &[f32; 8]),
+    ) -> [f32; 2] {
+        let wood = (density[0] > 0.0 && density[1] > 0.0 && !chances.is_empty())
+            .then(|| (0..8).map(|k| chances[idx[k]] * w[k]).sum());
+        shown_of(density, wood, self.wood_weight)
     }
 
     /// Both parts' densities at `c` (cell units from the grid origin): what shadow rays need.
@@ -575,7 +587,7 @@ impl Level {
     /// ([`Occupancy::wood_chances`]).
     pub fn fetch(&self, c: Vec3) -> Fetch {
         match Axes::at(c, self.dims) {
-            Some(axes) => self.fetch_at(&axes, &self.wood_chances()),
+            Some(axes) => self.fetch_at(&axes, &self.wood_chances(&self.wood_shown)),
             None => Fetch::default(),
         }
     }
@@ -605,9 +617,7 @@ impl Level {
                 f.wood_albedo += Vec3::from(albedo[idx[k]]) * w[k];
             }
         }
-        let wood = (f.density[0] > 0.0 && f.density[1] > 0.0 && !chances.is_empty())
-            .then(|| (0..8).map(|k| chances[idx[k]] * w[k]).sum());
-        f.shown = shown_of(f.density, wood, self.wood_weight);
+        f.shown = self.shown(f.density, chances, (&idx, &w));
         f
     }
 
@@ -868,7 +878,7 @@ impl Occupancy {
             occupied,
             full,
             stencils: Stencils::of(level),
-            wood_chances: level.wood_chances(),
+            wood_chances: level.wood_chances(&level.wood_shown),
         }
     }
 
@@ -880,7 +890,7 @@ impl Occupancy {
             occupied: vec![true; dims.iter().product()],
             full: true,
             stencils: Stencils::full(level),
-            wood_chances: level.wood_chances(),
+            wood_chances: level.wood_chances(&level.wood_shown),
         }
     }
 

@@ -295,19 +295,20 @@ impl Drawn {
 
 /// The level's foliage samples of one view ray that carry its shadows: `POINTS_PER_RAY`
 /// points drawn from the samples' weights times the chance that the foliage scatters there,
-/// as the renderer chooses: by the level's shown wood (`shown`, [`wood_shown`]) where it has
-/// one, else with the wood weighted by `wood`.
+/// as the renderer chooses: by the cells' chances of showing wood (`chances`,
+/// `Level::wood_chances` of the level's [`wood_shown`]) where it has them, else with the wood
+/// weighted by `wood`.
 fn texture_points(
     level: &Sparse,
-    (origin, scale, wood, shown): (DVec3, f64, f64, &[f32]),
+    (origin, scale, wood, chances): (DVec3, f64, f64, &[f32]),
     o: DVec3,
     v: DVec3,
     key: u64,
 ) -> Vec<Drawn> {
     let chance = |s: &ViewSample| match s.sigma {
-        [w, f] if w > 0.0 && f > 0.0 && !shown.is_empty() => {
+        [w, f] if w > 0.0 && f > 0.0 && !chances.is_empty() => {
             // Both parts scale alike with the directional factor: it cancels.
-            let [wood, foliage] = level.shown_at(shown, (s.p - origin) / level.cell);
+            let [wood, foliage] = level.shown_at(chances, (s.p - origin) / level.cell);
             f64::from(foliage) / f64::from(wood + foliage)
         }
         sigma => foliage_chance(sigma, wood),
@@ -707,6 +708,12 @@ fn self_shadow_factors(
     (rays, mesh_rays): (Lattice, Lattice),
 ) -> Vec<SelfShadow> {
     let views = views();
+    // Worked out once per level, as the renderer keeps them.
+    let chances: Vec<Vec<f32>> = levels
+        .iter()
+        .zip(shown)
+        .map(|(level, shown)| level.wood_chances(shown))
+        .collect();
     let draws: Vec<ViewDraws> = views
         .iter()
         .enumerate()
@@ -723,7 +730,7 @@ fn self_shadow_factors(
                             let key = rng::hash3(k as u64, i as u64, rng::purpose::SELF_SHADOW);
                             texture_points(
                                 level,
-                                (origin, scale, wood_weights[n], &shown[n]),
+                                (origin, scale, wood_weights[n], &chances[n]),
                                 o,
                                 v,
                                 key,
