@@ -316,6 +316,8 @@ struct LoneTree {
     model: import::Model,
     texel: Texel,
     foliage: Vec<bool>,
+    /// The species' leaf colour, in both methods.
+    leaf_albedo: glam::Vec3,
 }
 
 /// How a [`LoneTree`] is seen and lit: from `eye` (the direction from the tree), the sun `g`
@@ -361,6 +363,7 @@ impl LoneTree {
             model,
             texel,
             foliage,
+            leaf_albedo: glam::Vec3::new(0.05, 0.12, 0.04),
         }
     }
 
@@ -381,6 +384,13 @@ impl LoneTree {
                 m.base_color = glam::Vec4::new(0.0, 0.0, 0.0, m.base_color.w);
             }
         }
+        self
+    }
+
+    /// The same tree with black leaves, in both methods: only its wood gives light (the leaves
+    /// still hide and shadow it).
+    fn with_black_leaves(mut self) -> LoneTree {
+        self.leaf_albedo = glam::Vec3::ZERO;
         self
     }
 
@@ -423,7 +433,7 @@ impl LoneTree {
                 Look {
                     texel: 0,
                     foliage: 1.0,
-                    foliage_albedo: glam::Vec3::new(0.05, 0.12, 0.04),
+                    foliage_albedo: self.leaf_albedo,
                 },
                 Look {
                     texel: 0,
@@ -513,7 +523,9 @@ fn tree_radiance_ratio(tree: &LoneTree, light: Light, lod_bias: f32) -> [f64; 4]
 /// (`bake::refine`, stop 55), 1.002 and 0.962 (1.048 and 0.930), the bare tree at 60 degrees
 /// 1.009 (1.103). Since a point weighs its cells' chances of showing wood by their extinction
 /// (stop 59; the next test), the broadleaf at 20 degrees reads R / G / B 0.954 / 1.018 / 0.994
-/// at level 0 and 1.024 / 1.049 / 1.039 at level 2.
+/// at level 0 and 1.024 / 1.049 / 1.039 at level 2; since each part's extinction along a view
+/// turns with its surfaces (stop 60, `each_part_of_a_lone_tree_shows_as_much_as_its_meshs_part`),
+/// 0.972 / 1.005 / 0.993 and 1.042 / 1.027 / 1.033.
 #[test]
 fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
     for tree in [
@@ -559,8 +571,10 @@ fn a_lone_tree_is_as_bright_as_its_mesh_at_every_level_and_sun() {
 /// let a trunk's cell lend its weight (up to 64) to the leafy cells around it: the broadleaf's
 /// red over green read 0.953 / 0.964 / 1.022 / **1.141** of its mesh's on levels 0-3 (blue
 /// over green up to 1.052); so weighted 0.953 / 0.959 / 0.975 / 0.983 (0.994). The conifer,
-/// whose trunk hides in its cells, 0.99-1.00 either way. Level 0's 5 % is the fine levels'
-/// own (the fixture forest's wood light there is 0.80 of its mesh's).
+/// whose trunk hides in its cells, 0.99-1.00 either way. Level 0's 5 % was the wood a crown's
+/// leaves hid from the side (`each_part_of_a_lone_tree_shows_as_much_as_its_meshs_part`):
+/// with each part's extinction turned by its surfaces (stop 60), 0.979 / 0.986 / 1.008 /
+/// 1.022.
 #[test]
 fn a_lone_tree_shows_as_much_wood_as_its_mesh_on_every_level() {
     for tree in ["trees/conifer.glb", "trees/broadleaf.gltf"] {
@@ -889,6 +903,70 @@ fn overlapping_trees_block_as_independent_media() {
                     assert!(
                         independence.abs() < 0.01,
                         "{tree} {apart} {aside} {d}: {independence}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Each part of a lone tree shows as much of itself as the mesh's: the frame's light from the
+/// wood alone (black leaves, which still hide it) and from the leaves alone (black wood), lit
+/// by the sky alone, so that only what shows counts, texel over mesh, from three heights of
+/// the eye (10, 25 and 51 degrees up), at the finest level and a coarse one.
+///
+/// With both parts' extinction turned alike by the level's directional form, the broadleaf's
+/// wood read 0.66 / 0.79 / 1.16 of its mesh's at level 0 from 10 / 25 / 51 degrees up (level 2:
+/// 0.68 / 0.89 / 1.34) and its leaves 1.17 / 1.08 / 0.96: its leaf cards lie flatter than its
+/// branches stand, so from the side the mesh's leaves hide less of the crown's inside than the
+/// texture's did. Since each part's extinction along a view follows its surfaces' projected
+/// area (`volume::PartFacing`, stop 60), 0.88 / 0.91 / 0.97 (level 2: 0.91 / 1.01 / 1.13), the
+/// leaves 1.11 / 1.05 / 0.98. The conifer's wood from 51 degrees up, 1.23 at level 0 and 1.32
+/// at level 2 (1.30 and 1.39 before), is what is left: seen from above, its texture shows
+/// more of its trunk through the crown than the mesh does (README, *The wood a crown shows,
+/// by the eye's height*).
+#[test]
+fn each_part_of_a_lone_tree_shows_as_much_as_its_meshs_part() {
+    // The sun a thousandth of the sky's light: what shows, by its albedo.
+    let sky = texel_forest::render::Shading {
+        kd: 1.0,
+        ks: 0.0,
+        ambient: 1000.0,
+        ..texel_forest::render::Shading::default()
+    };
+    for (tree, bounds) in [
+        ("trees/conifer.glb", [0.35, 0.08]),
+        ("trees/broadleaf.gltf", [0.15, 0.12]),
+    ] {
+        for (part, bound) in ["wood", "leaves"].into_iter().zip(bounds) {
+            let lone = LoneTree::new(tree);
+            let lone = if part == "wood" {
+                lone.with_black_leaves()
+            } else {
+                lone.with_black_wood()
+            };
+            for (height, eye) in [(10, FROM_LOW), (25, FROM_SSW), (51, FROM_HIGH)] {
+                let light = Light {
+                    eye,
+                    g: 30.0,
+                    turn: 0.0,
+                    shadows: false,
+                    rays: ShadowRays::Exact,
+                    shading: sky,
+                };
+                let mesh = lone.sums(light, Method::Mesh, 64, 0.0);
+                for level in [0, 2] {
+                    // The footprint here is 2^-4 of a finest cell.
+                    let texel = lone.sums(light, Method::Texel, 16, 4.0 + level as f32);
+                    // Green holds most of the leaves' light, red the bark's.
+                    let c = usize::from(part == "leaves");
+                    let ratio = texel[c] / mesh[c];
+                    println!(
+                        "{tree:<22} {part:<6} eye {height} degrees up, level {level}: texel / mesh {ratio:.3}"
+                    );
+                    assert!(
+                        (ratio - 1.0).abs() < bound,
+                        "{tree} {part}, eye {height} degrees up, level {level}: {ratio}"
                     );
                 }
             }

@@ -544,9 +544,11 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
             continue;
         }
         let f = level.fetch_at(&axes, &occupancy.wood_chances);
+        // Each part as much as faces the view (`Active::facing`).
+        let [to_wood, to_foliage] = a.facing;
         let (wood, foliage) = (
-            a.extinction(f.density[0]),
-            a.extinction(look.foliage * f.density[1]),
+            a.extinction(f.density[0]) * to_wood,
+            a.extinction(look.foliage * f.density[1]) * to_foliage,
         );
         let s = wood + foliage;
         if s <= 0.0 {
@@ -556,8 +558,8 @@ fn mix(scene: &Scene, active: &[Active], ts: f32, mut each: Option<&mut Vec<(u32
             e.push((a.instance, s));
         }
         m.wood += wood;
-        m.wood_shown += a.extinction(f.shown[0]);
-        m.foliage_shown += a.extinction(look.foliage * f.shown[1]);
+        m.wood_shown += a.extinction(f.shown[0]) * to_wood;
+        m.foliage_shown += a.extinction(look.foliage * f.shown[1]) * to_foliage;
         m.foliage += foliage;
         m.albedo_wood += f.wood_albedo * wood;
         m.albedo_foliage += look.foliage_albedo * foliage;

@@ -130,6 +130,10 @@ pub(super) struct Active {
     pub(super) sigma_scale: f32,
     /// Segment length in this texture (m).
     pub(super) step: f32,
+    /// Factors on the wood's and the foliage's extinction where this ray is a view ray
+    /// (`volume::PartFacing`, [`Active::seen`]; 1 on shadow rays): constant along it, as the
+    /// directional factor is.
+    pub(super) facing: [f32; 2],
     /// Whether the ray's brick of this texture (`volume::Occupancy`) can hold density, and
     /// until where along the ray that holds (`-inf`: not looked at yet).
     pub(super) span: (bool, f32),
@@ -193,8 +197,18 @@ impl Active {
                 / inst.scale)
                 .min(SIGMA_MAX),
             step: cell * inst.scale,
+            facing: [1.0; 2],
             span: (true, f32::NEG_INFINITY),
         }
+    }
+
+    /// This instance on a view ray along `dir` (model space): each part's extinction as much
+    /// as faces the eye.
+    pub(super) fn seen(self, scene: &Scene, dir: Vec3) -> Active {
+        let facing = scene.occupancy[self.model as usize][self.level]
+            .part_facing
+            .along(dir);
+        Active { facing, ..self }
     }
 
     /// Where this texture can next hold density along the ray from `t`, if the ray is in an
@@ -266,7 +280,8 @@ impl<'a> Walk<'a> {
             }
             let footprint = enter * self.spread;
             let local = self.scene.instances.get(i).local_ray(&self.ray);
-            let a = Active::new(self.scene, i, &local, exit, footprint, self.lod_bias);
+            let a = Active::new(self.scene, i, &local, exit, footprint, self.lod_bias)
+                .seen(self.scene, local.dir);
             self.active.push(a);
         }
     }
