@@ -224,7 +224,7 @@ impl PartFacing {
                 }
             }
         }
-        if !totals.iter().all(|t| t.is_finite()) || totals.iter().all(|&t| t <= 0.0) {
+        if totals.iter().all(|&t| t <= 0.0) {
             return PartFacing::ALIKE;
         }
         PartFacing {
@@ -245,13 +245,9 @@ impl PartFacing {
         let Some(w) = d.try_normalize() else {
             return [1.0; 2];
         };
-        let g = self.normals.map(|[xx, yy, zz, xy, xz, yz]| {
-            let q = xx * w.x * w.x
-                + yy * w.y * w.y
-                + zz * w.z * w.z
-                + 2.0 * (xy * w.x * w.y + xz * w.x * w.z + yz * w.y * w.z);
-            (3.0 * q).max(1.0 / 16.0).sqrt()
-        });
+        let g = self
+            .normals
+            .map(|m| (3.0 * quadratic_form(m, w)).max(1.0 / 16.0).sqrt());
         let [tw, tf] = self.totals;
         let mean = (tw * g[0] + tf * g[1]) / (tw + tf);
         let factors = g.map(|g| g / mean);
@@ -261,6 +257,14 @@ impl PartFacing {
             [1.0; 2]
         }
     }
+}
+
+/// `w^T M w` for the symmetric matrix `M = [xx, yy, zz, xy, xz, yz]` (a directional form's
+/// quadratic part, a normal distribution's mean squared `n . w`).
+#[inline]
+fn quadratic_form([xx, yy, zz, xy, xz, yz]: [f32; 6], w: Vec3) -> f32 {
+    let w2 = w * w;
+    xx * w2.x + yy * w2.y + zz * w2.z + 2.0 * (xy * w.x * w.y + xz * w.x * w.z + yz * w.y * w.z)
 }
 
 /// The second moment `n n^T` of one unit normal, `[xx, yy, zz, xy, xz, yz]`: what a surface
@@ -556,10 +560,7 @@ impl Level {
             return 1.0;
         };
         let w2 = w * w;
-        let q = xx * w2.x
-            + yy * w2.y
-            + zz * w2.z
-            + 2.0 * (xy * w.x * w.y + xz * w.x * w.z + yz * w.y * w.z)
+        let q = quadratic_form([xx, yy, zz, xy, xz, yz], w)
             + c * (w2.x * w2.x + w2.y * w2.y + w2.z * w2.z);
         q.max(DIRECTIONAL_FLOOR).sqrt()
     }

@@ -311,6 +311,7 @@ fn an_axis_aligned_box_bakes_to_an_opaque_block() {
 
 /// One fixture tree alone (no terrain), baked once, to be rendered by both methods, seen from
 /// four tree heights away.
+#[derive(Clone)]
 struct LoneTree {
     name: String,
     model: import::Model,
@@ -938,12 +939,12 @@ fn each_part_of_a_lone_tree_shows_as_much_as_its_meshs_part() {
         ("trees/conifer.glb", [0.35, 0.08]),
         ("trees/broadleaf.gltf", [0.15, 0.12]),
     ] {
+        let baked = LoneTree::new(tree);
         for (part, bound) in ["wood", "leaves"].into_iter().zip(bounds) {
-            let lone = LoneTree::new(tree);
             let lone = if part == "wood" {
-                lone.with_black_leaves()
+                baked.clone().with_black_leaves()
             } else {
-                lone.with_black_wood()
+                baked.clone().with_black_wood()
             };
             for (height, eye) in [(10, FROM_LOW), (25, FROM_SSW), (51, FROM_HIGH)] {
                 let light = Light {

@@ -307,7 +307,10 @@ fn texture_points(
 ) -> Vec<Drawn> {
     let chance = |s: &ViewSample| match s.sigma {
         [w, f] if w > 0.0 && f > 0.0 && !chances.is_empty() => {
-            // Both parts scale alike with the directional factor: it cancels.
+            // Both parts scale alike with the directional factor, so it cancels. (The
+            // renderer's view rays also turn each part by how much of it faces them,
+            // `volume::PartFacing`; the bake's fits do not yet: README, *The wood a crown
+            // shows, by the eye's height*.)
             let [wood, foliage] = level.shown_at(chances, (s.p - origin) / level.cell);
             f64::from(foliage) / f64::from(wood + foliage)
         }
