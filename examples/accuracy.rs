@@ -15,7 +15,7 @@ use texel_forest::bake::{self, BakeSettings};
 use texel_forest::corpus;
 use texel_forest::mesh_tracer::MeshTracer;
 use texel_forest::silhouette::{Frame, compare, over_views, random_directions};
-use texel_forest::volume::{DensityModel, Level};
+use texel_forest::volume::{DensityModel, Level, PartFacing};
 
 /// Rays per cell edge along the axes: 64 a cell (thin branches seen end on need them; see
 /// `tests/accuracy.rs`).
@@ -67,8 +67,11 @@ fn main() {
         let tracer = MeshTracer::new(&model.mesh);
         let frame = Frame::of(&texel);
         let texel = &texel;
-        let at_level =
-            |level: usize| move |p: DVec3, d: DVec3| texel.extinction(level, p, d) as f64;
+        let facing: Vec<PartFacing> = texel.levels.iter().map(PartFacing::of).collect();
+        let facing = &facing;
+        let at_level = |level: usize| {
+            move |p: DVec3, d: DVec3| texel.extinction(level, &facing[level], p, d) as f64
+        };
         let axes: Vec<_> = [DVec3::X, DVec3::Y, DVec3::Z]
             .iter()
             .map(|&d| compare(&tracer, frame, d, AXIS_RAYS, &at_level(0)))

@@ -1203,15 +1203,20 @@ impl Texel {
     }
 
     /// Extinction (1/m) of both parts at model-space point `p` on level `level`, along the
-    /// direction `dir` (model space); inside a solid (full foliage), [`SOLID_EXTINCTION`].
-    pub fn extinction(&self, level: usize, p: DVec3, dir: DVec3) -> f32 {
+    /// direction `dir` (model space), as a view ray sees it: each part turned by `facing`,
+    /// the level's [`PartFacing`] (worked out once by the caller); inside a solid (full
+    /// foliage), [`SOLID_EXTINCTION`].
+    pub fn extinction(&self, level: usize, facing: &PartFacing, p: DVec3, dir: DVec3) -> f32 {
         let l = &self.levels[level];
         let q = (p - self.origin()) / l.cell;
         if l.in_solid(q.as_vec3(), 1.0) {
             return SOLID_EXTINCTION;
         }
-        let s = self.info.extinction_scale as f32 * l.directional_factor(dir.as_vec3());
-        s * (l.interpolate(&l.density[0], q) + l.interpolate(&l.density[1], q))
+        let dir = dir.as_vec3();
+        let s = self.info.extinction_scale as f32 * l.directional_factor(dir);
+        let [to_wood, to_foliage] = facing.along(dir);
+        s * (l.interpolate(&l.density[0], q) * to_wood
+            + l.interpolate(&l.density[1], q) * to_foliage)
     }
 
     /// The share of the view along `axis` the finest level blocks: the mean over its columns
@@ -1221,25 +1226,40 @@ impl Texel {
         d.iter().map(|t| 1.0 - (-t).exp()).sum::<f64>() / d.len().max(1) as f64
     }
 
-    /// Optical depth of every column of cells of `level` along `axis` (both parts), in the
-    /// model's units: the silhouette the texture casts along the axis is `1 - exp(-depth)`.
-    /// Where the level has solids (full foliage), the share of the column they block (at 4 x 4
-    /// lines across it: along a line the field is linear between the planes of cell centres,
-    /// so a line reaches the level where it does at one of them) adds `-ln(1 - share)`.
+    /// Optical depth of every column of cells of `level` along `axis`, in the model's units,
+    /// as a view ray along the axis sees it (the level's directional factor, each part turned
+    /// by its [`PartFacing`]): the silhouette the texture casts along the axis is
+    /// `1 - exp(-depth)`. Where the level has solids (full foliage), the share of the column
+    /// they block (at 4 x 4 lines across it: along a line the field is linear between the
+    /// planes of cell centres, so a line reaches the level where it does at one of them) adds
+    /// `-ln(1 - share)`.
     pub fn column_depths(&self, level: usize, axis: usize) -> Vec<f64> {
+        let l = &self.levels[level];
+        let mut w = Vec3::ZERO;
+        w[axis] = 1.0;
+        let turn = PartFacing::of(l).along(w);
+        self.columns(level, axis, turn.map(|t| l.directional_factor(w) * t))
+    }
+
+    /// [`Texel::column_depths`] of the densities alone, both parts alike, without the
+    /// directional factor: what the scans measured.
+    pub fn scanned_column_depths(&self, level: usize, axis: usize) -> Vec<f64> {
+        self.columns(level, axis, [1.0; 2])
+    }
+
+    /// The columns' optical depths with each part's density times `by`.
+    fn columns(&self, level: usize, axis: usize, by: [f32; 2]) -> Vec<f64> {
         let l = &self.levels[level];
         let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
         let mut depth = vec![0.0; l.dims[u] * l.dims[v]];
-        let mut w = Vec3::ZERO;
-        w[axis] = 1.0;
-        let s = self.info.extinction_scale * l.cell * f64::from(l.directional_factor(w));
+        let s = self.info.extinction_scale * l.cell;
         for z in 0..l.dims[2] {
             for y in 0..l.dims[1] {
                 for x in 0..l.dims[0] {
                     let c = [x, y, z];
                     let i = l.index(x, y, z);
                     depth[c[u] + l.dims[u] * c[v]] +=
-                        s * (l.density[0][i] + l.density[1][i]) as f64;
+                        s * (l.density[0][i] * by[0] + l.density[1][i] * by[1]) as f64;
                 }
             }
         }

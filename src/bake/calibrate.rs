@@ -23,7 +23,10 @@
 //! The fit: along each of 13 directions (the axes, the face diagonals and the body diagonals;
 //! a silhouette is the same seen from either side), the same lattice of parallel rays is
 //! traced through the mesh (alpha-tested, as the renderer's mesh method does) and marched
-//! through the level's trilinear texture. The factor `f` whose blocked area, the sum over rays
+//! through the level's trilinear texture, each part's density turned by how much of its
+//! surfaces face the rays (`volume::PartFacing`), as the renderer's view rays turn it (a
+//! crown's flat leaves block more from above than its upright branches do; the matrix
+//! carries what the parts share). The factor `f` whose blocked area, the sum over rays
 //! of `1 - exp(-f depth)`, equals the mesh's is found by bisection; then `S` is the least
 //! squares solution of `w^T S w = f^2` over the 13 directions (linear in the six entries of
 //! `S`), exact along the axes when the data allow.
@@ -35,7 +38,7 @@ use crate::geom::Ray;
 use crate::import::Mesh;
 use crate::mesh_tracer::MeshTracer;
 use crate::rng;
-use crate::volume::{DIRECTIONAL_FLOOR, Level, Sparse};
+use crate::volume::{DIRECTIONAL_FLOOR, Level, PartFacing, Sparse};
 
 /// Factors are kept within these bounds (a direction nothing blocks keeps 1).
 const F_MIN: f64 = 1.0 / 64.0;
@@ -82,6 +85,7 @@ pub fn directional_forms(
     let hi = origin + DVec3::from(coarsest.dims.map(|d| d as f64)) * coarsest.cell;
     let spacing = levels[0].cell / RAYS_PER_CELL;
     let sparse: Vec<Sparse> = levels.iter().map(Sparse::new).collect();
+    let facing: Vec<PartFacing> = levels.iter().map(PartFacing::of).collect();
     let dirs = directions();
     // Per direction: the area the mesh blocks, in texture rays' squares, and per level the
     // texture rays' depths.
@@ -90,12 +94,15 @@ pub fn directional_forms(
         .enumerate()
         .map(|(k, &d)| {
             let rays = lattice(origin, hi, d, spacing, k as u64);
+            // Each part as much as faces the rays, as the renderer's view rays turn it.
+            let turns: Vec<[f32; 2]> = facing.iter().map(|f| f.along(d.as_vec3())).collect();
             let depths: Vec<Vec<f64>> = rays
                 .par_iter()
                 .map(|&(o, _)| {
                     sparse
                         .iter()
-                        .map(|l| depth(l, origin, o, d) * extinction_scale)
+                        .zip(&turns)
+                        .map(|(l, &turn)| depth(l, origin, (o, d), turn) * extinction_scale)
                         .collect()
                 })
                 .collect();
@@ -238,9 +245,15 @@ pub(super) fn lattice(
 }
 
 /// Optical depth per unit extinction scale of the ray `o + t d` through `level`'s trilinear
-/// densities (both parts), by the midpoint rule of [`midpoints`]; infinite where the ray meets
-/// a solid, which blocks it whatever the directional factor.
-fn depth(level: &Sparse, origin: DVec3, o: DVec3, d: DVec3) -> f64 {
+/// densities, each part times its `turn` ([`PartFacing::along`] `d`), by the midpoint rule of
+/// [`midpoints`]; infinite where the ray meets a solid, which blocks it whatever the
+/// directional factor.
+fn depth(
+    level: &Sparse,
+    origin: DVec3,
+    (o, d): (DVec3, DVec3),
+    [to_wood, to_foliage]: [f32; 2],
+) -> f64 {
     let start = (o - origin) / level.cell;
     let dc = d / level.cell;
     let (ts, step) = midpoints(level, origin, o, d);
@@ -255,7 +268,7 @@ fn depth(level: &Sparse, origin: DVec3, o: DVec3, d: DVec3) -> f64 {
             return f64::INFINITY;
         }
         let [wood, foliage] = level.density_at(c);
-        sum += f64::from(wood + foliage);
+        sum += f64::from(wood * to_wood + foliage * to_foliage);
     }
     sum * step
 }

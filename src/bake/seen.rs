@@ -47,7 +47,8 @@
 //! the eye) and the verdict of a shadow ray towards `l` (alpha-tested, as the mesh method
 //! shades). On the level, a lattice of such rays one per level-0 cell, each marched (midpoint
 //! rule, half a cell) and its foliage samples weighted as the renderer weights them
-//! (`T (1 - exp(-sigma dt))` times the foliage's share of sigma); a point drawn from those
+//! (`T (1 - exp(-sigma dt))` times the foliage's share of sigma, each part turned along the
+//! view as the renderer's view rays turn it, `volume::PartFacing`); a point drawn from those
 //! weights carries the optical depth towards `l`, weighted by its leaves' response to `l` as
 //! the renderer shades them ([`Drawn`]). Each sun counts in the pooled row with weight 1, in
 //! the rows by sun height with the weights by which the renderer interpolates between them,
@@ -74,8 +75,8 @@ use crate::mesh_tracer::MeshTracer;
 use crate::render::leaves::{EVEN, VisibleNormals};
 use crate::rng;
 use crate::volume::{
-    EYE_HEIGHTS, ISOTROPIC_LEAVES, Level, SELF_SHADOW_ANGLES, SOLID_EXTINCTION, SUN_HEIGHTS,
-    SUN_TURNS, SelfShadow, Sparse, SunFromEye, hat,
+    EYE_HEIGHTS, ISOTROPIC_LEAVES, Level, PartFacing, SELF_SHADOW_ANGLES, SOLID_EXTINCTION,
+    SUN_HEIGHTS, SUN_TURNS, SelfShadow, Sparse, SunFromEye, hat,
 };
 
 /// Parallel rays along `-v` over the box's shadow, keyed by a stream, each as (origin before
@@ -196,8 +197,14 @@ fn mesh_seen(tracer: &MeshTracer, leaves: &[LeafHit], l: DVec3) -> Seen {
 }
 
 /// The level's extinction `[wood, foliage]` at model-space point `p`, times `factor` (the
-/// extinction scale and the directional factor); inside a solid, opaque in its part.
-fn extinction(level: &Sparse, origin: DVec3, p: DVec3, factor: f64) -> [f64; 2] {
+/// extinction scale and the directional factor) and each part's `turn`; inside a solid,
+/// opaque in its part.
+fn extinction(
+    level: &Sparse,
+    origin: DVec3,
+    p: DVec3,
+    (factor, turn): (f64, [f32; 2]),
+) -> [f64; 2] {
     let c = (p - origin) / level.cell;
     let c = Vec3::new(c.x as f32, c.y as f32, c.z as f32);
     if level.in_solid(c, 1.0) {
@@ -205,8 +212,8 @@ fn extinction(level: &Sparse, origin: DVec3, p: DVec3, factor: f64) -> [f64; 2] 
         let opaque = f64::from(SOLID_EXTINCTION);
         return if f > w { [0.0, opaque] } else { [opaque, 0.0] };
     }
-    let d = level.density_at(c);
-    d.map(|x| f64::from(x) * factor)
+    let [wood, foliage] = level.density_at(c);
+    [wood * turn[0], foliage * turn[1]].map(|x| f64::from(x) * factor)
 }
 
 /// One sample of a view ray's march: where, the share of the ray's light it holds
@@ -217,8 +224,15 @@ struct ViewSample {
     sigma: [f64; 2],
 }
 
-/// The view ray `o - t v` marched through the level (the midpoint rule of [`midpoints`]).
-fn march_view(level: &Sparse, origin: DVec3, scale: f64, o: DVec3, v: DVec3) -> Vec<ViewSample> {
+/// The view ray `o - t v` marched through the level (the midpoint rule of [`midpoints`]),
+/// each part's extinction times its `turn` (`[1, 1]`, or the renderer's
+/// [`PartFacing::along`] the ray).
+fn march_view(
+    level: &Sparse,
+    (origin, scale): (DVec3, f64),
+    (o, v): (DVec3, DVec3),
+    turn: [f32; 2],
+) -> Vec<ViewSample> {
     let d = -v;
     let factor = scale * f64::from(level.directional_factor(d.as_vec3()));
     let (ts, step) = midpoints(level, origin, o, d);
@@ -226,7 +240,7 @@ fn march_view(level: &Sparse, origin: DVec3, scale: f64, o: DVec3, v: DVec3) -> 
     let mut samples = Vec::new();
     for t in ts {
         let p = o + d * t;
-        let sigma = extinction(level, origin, p, factor);
+        let sigma = extinction(level, origin, p, (factor, turn));
         let opacity = -(-(sigma[0] + sigma[1]) * step).exp_m1();
         if opacity > 0.0 {
             samples.push(ViewSample {
@@ -297,26 +311,25 @@ impl Drawn {
 /// points drawn from the samples' weights times the chance that the foliage scatters there,
 /// as the renderer chooses: by the cells' chances of showing wood (`chances`,
 /// `Level::wood_chances` of the level's [`wood_shown`]) where it has them, else with the wood
-/// weighted by `wood`.
+/// weighted by `wood`; each part turned, in its extinction and its chance, by `turn`
+/// ([`PartFacing::along`] the ray, as the renderer's view rays turn it).
 fn texture_points(
     level: &Sparse,
     (origin, scale, wood, chances): (DVec3, f64, f64, &[f32]),
-    o: DVec3,
-    v: DVec3,
+    (o, v, turn): (DVec3, DVec3, [f32; 2]),
     key: u64,
 ) -> Vec<Drawn> {
     let chance = |s: &ViewSample| match s.sigma {
         [w, f] if w > 0.0 && f > 0.0 && !chances.is_empty() => {
-            // Both parts scale alike with the directional factor, so it cancels. (The
-            // renderer's view rays also turn each part by how much of it faces them,
-            // `volume::PartFacing`; the bake's fits do not yet: README, *The wood a crown
-            // shows, by the eye's height*.)
+            // The directional factor scales both parts alike, so it cancels; each part's
+            // turn does not.
             let [wood, foliage] = level.shown_at(chances, (s.p - origin) / level.cell);
-            f64::from(foliage) / f64::from(wood + foliage)
+            let [wood, foliage] = [f64::from(wood * turn[0]), f64::from(foliage * turn[1])];
+            foliage / (wood + foliage)
         }
         sigma => foliage_chance(sigma, wood),
     };
-    let weights: Vec<(DVec3, f64)> = march_view(level, origin, scale, o, v)
+    let weights: Vec<(DVec3, f64)> = march_view(level, (origin, scale), (o, v), turn)
         .iter()
         .map(|s| (s.p, s.weight * chance(s)))
         .collect();
@@ -451,7 +464,9 @@ pub fn fit_sight(
 }
 
 /// The wood weight of every level: the wood's share of what the views see in the mesh (first
-/// hits), matched by the level's samples. 1 where the mesh shows only one part.
+/// hits), matched by the level's samples, both parts read alike along every view as the
+/// readers that use the weight (before texel 1.7) read them. 1 where the mesh shows only one
+/// part.
 fn wood_weights(
     tracer: &MeshTracer,
     is_foliage: &[bool],
@@ -479,7 +494,7 @@ fn wood_weights(
         for (n, level) in levels.iter().enumerate() {
             let samples: Vec<ViewSample> = rays
                 .par_iter()
-                .flat_map_iter(|&(o, _)| march_view(level, origin, scale, o, v))
+                .flat_map_iter(|&(o, _)| march_view(level, (origin, scale), (o, v), [1.0; 2]))
                 .collect();
             for sample in samples {
                 pure[n].1 += sample.weight;
@@ -531,7 +546,12 @@ const SHOWN_STREAM: u64 = 1000;
 /// level-0 cell apart walk every surface of the mesh in turn; the first surface a ray meets in
 /// a cell counts for that cell's share `h`, on every level. The weight `w` solves
 /// `w a / (w a + b) = h`, with `h` drawn towards `a / (a + b)` by [`SHOWN_PRIOR`] hits and `w`
-/// within [`WOOD_WEIGHT`]; a cell of one part keeps its density (the choice is certain).
+/// within [`WOOD_WEIGHT`]; a cell of one part keeps its density (the choice is certain). Where
+/// the renderer turns the parts unlike along the views (`volume::PartFacing`: flat leaves
+/// show less of themselves from the side than upright branches do), the hits are kept by view
+/// and `w` makes the chances the renderer gives each view, summed, the mesh's
+/// ([`shown_density`]): the pooled share, met in the mean of unturned chances, was met by no
+/// view the renderer draws.
 ///
 /// Unlike a level's single weight fitted to what whole views of the lone tree see, the share is
 /// the cell's own: the same wherever the cell stands in a forest, whose neighbours hide the
@@ -547,12 +567,35 @@ pub fn wood_shown(
         return Vec::new();
     };
     let spacing = finest.cell * SHOWN_RAY_SPACING;
-    // Per level and cell: first hits on wood, on foliage.
-    let mut hits: Vec<Vec<[u32; 2]>> = levels
+    let views = views();
+    // Only a cell with both parts has a choice to fit: per level, each cell's slot among
+    // those (`u32::MAX` for the others), and per slot the first hits on wood and on foliage
+    // in each view.
+    let slots: Vec<Vec<u32>> = levels
         .iter()
-        .map(|l| vec![[0; 2]; l.cell_count()])
+        .map(|l| {
+            let [wood, foliage] = &l.density;
+            let mut next = 0u32;
+            (0..l.cell_count())
+                .map(|i| {
+                    if wood[i] > 0.0 && foliage[i] > 0.0 {
+                        next += 1;
+                        next - 1
+                    } else {
+                        u32::MAX
+                    }
+                })
+                .collect()
+        })
         .collect();
-    for (k, v) in views().into_iter().enumerate() {
+    let mut hits: Vec<Vec<Vec<[u32; 2]>>> = slots
+        .iter()
+        .map(|s| {
+            let mixed = s.iter().filter(|&&k| k != u32::MAX).count();
+            vec![vec![[0; 2]; views.len()]; mixed]
+        })
+        .collect();
+    for (k, &v) in views.iter().enumerate() {
         let stream = SHOWN_STREAM + k as u64;
         let rays = super::calibrate::lattice(origin, hi, -v, spacing, stream);
         let firsts: Vec<Vec<(u8, u32, bool)>> = rays
@@ -564,31 +607,75 @@ pub fn wood_shown(
             })
             .collect();
         for (n, cell, foliage) in firsts.into_iter().flatten() {
-            hits[n as usize][cell as usize][usize::from(foliage)] += 1;
+            let slot = slots[n as usize][cell as usize];
+            if slot != u32::MAX {
+                hits[n as usize][slot as usize][k][usize::from(foliage)] += 1;
+            }
         }
     }
     levels
         .iter()
-        .zip(&hits)
-        .map(|(level, hits)| {
+        .zip(slots.iter().zip(&hits))
+        .map(|(level, (slots, hits))| {
+            // The renderer turns each part along each view alike in every cell of a level.
+            let facing = PartFacing::of(level);
+            let ratios: Vec<f64> = views
+                .iter()
+                .map(|&v| {
+                    let [wood, foliage] = facing.along(v.as_vec3());
+                    f64::from(wood) / f64::from(foliage)
+                })
+                .collect();
             let [wood, foliage] = &level.density;
             (0..level.cell_count())
-                .map(|i| shown_density(wood[i], foliage[i], hits[i]))
+                .map(|i| match slots[i] {
+                    u32::MAX => wood[i],
+                    slot => {
+                        let seen: Vec<([u32; 2], f64)> = hits[slot as usize]
+                            .iter()
+                            .copied()
+                            .zip(ratios.iter().copied())
+                            .collect();
+                        shown_density(wood[i], foliage[i], &seen)
+                    }
+                })
                 .collect()
         })
         .collect()
 }
 
 /// A cell's shown wood density from its densities and the mesh's first hits in it
-/// ([`wood_shown`]).
-fn shown_density(wood: f32, foliage: f32, [hw, hf]: [u32; 2]) -> f32 {
+/// ([`wood_shown`]), given per view as the hits on wood and on foliage and the ratio of the
+/// wood's turn to the foliage's along that view ([`PartFacing::along`]).
+///
+/// The renderer shows wood first in the cell, along a view whose ratio is `r`, with chance
+/// `c_r(w) = w a r / (w a r + b)`; the weight makes the views' summed chances, each times
+/// the view's hits, plus the prior's [`SHOWN_PRIOR`] hits at the uniform share `a / (a + b)`
+/// (ratio 1), the mesh's wood hits plus the prior's: `sum_v n_v c_(r_v)(w) + P c_1(w) =
+/// h_wood + P a / (a + b)`. Where every ratio is 1 that is `c_1(w) = h`, solved in closed
+/// form.
+fn shown_density(wood: f32, foliage: f32, seen: &[([u32; 2], f64)]) -> f32 {
     if wood <= 0.0 || foliage <= 0.0 {
         return wood;
     }
     let (a, b) = (f64::from(wood), f64::from(foliage));
     let uniform = a / (a + b);
-    let h = (f64::from(hw) + SHOWN_PRIOR * uniform) / (f64::from(hw + hf) + SHOWN_PRIOR);
-    let w = (h * b / ((1.0 - h) * a)).clamp(WOOD_WEIGHT.0, WOOD_WEIGHT.1);
+    let hw: u32 = seen.iter().map(|(h, _)| h[0]).sum();
+    let target = f64::from(hw) + SHOWN_PRIOR * uniform;
+    let w = if seen.iter().all(|&(_, r)| r == 1.0) {
+        let hf: u32 = seen.iter().map(|(h, _)| h[1]).sum();
+        let h = target / (f64::from(hw + hf) + SHOWN_PRIOR);
+        (h * b / ((1.0 - h) * a)).clamp(WOOD_WEIGHT.0, WOOD_WEIGHT.1)
+    } else {
+        let chance = |w: f64, r: f64| w * a * r / (w * a * r + b);
+        let shown = |w: f64| {
+            seen.iter()
+                .map(|&([hw, hf], r)| f64::from(hw + hf) * chance(w, r))
+                .sum::<f64>()
+                + SHOWN_PRIOR * chance(w, 1.0)
+        };
+        bisect_log(shown, target, WOOD_WEIGHT)
+    };
     (w * a) as f32
 }
 
@@ -717,6 +804,7 @@ fn self_shadow_factors(
         .zip(shown)
         .map(|(level, shown)| level.wood_chances(shown))
         .collect();
+    let facing: Vec<PartFacing> = levels.iter().map(|l| PartFacing::of(l)).collect();
     let draws: Vec<ViewDraws> = views
         .iter()
         .enumerate()
@@ -727,6 +815,7 @@ fn self_shadow_factors(
                 .iter()
                 .enumerate()
                 .map(|(n, level)| {
+                    let turn = facing[n].along(v.as_vec3());
                     rays.par_iter()
                         .enumerate()
                         .flat_map_iter(|(i, &(o, _))| {
@@ -734,8 +823,7 @@ fn self_shadow_factors(
                             texture_points(
                                 level,
                                 (origin, scale, wood_weights[n], &chances[n]),
-                                o,
-                                v,
+                                (o, v, turn),
                                 key,
                             )
                         })
@@ -825,19 +913,46 @@ mod tests {
     #[test]
     fn a_cells_shown_wood_follows_its_first_hits() {
         let (a, b) = (1.0f32, 3.0f32);
-        let uniform = [100, 300];
-        assert!((shown_density(a, b, uniform) - a).abs() < 1e-6);
-        assert_eq!(shown_density(a, b, [0, 0]), a);
-        let hidden = shown_density(a, b, [1, 399]);
+        let alike = |hits: [u32; 2]| shown_density(a, b, &[(hits, 1.0)]);
+        assert!((alike([100, 300]) - a).abs() < 1e-6);
+        assert_eq!(alike([0, 0]), a);
+        let hidden = alike([1, 399]);
         assert!(hidden < 0.05 * a && hidden >= a / 64.0, "{hidden}");
-        let outside = shown_density(a, b, [399, 1]);
+        let outside = alike([399, 1]);
         assert!(outside > 20.0 * a && outside <= 64.0 * a, "{outside}");
         // The share it gives is the mesh's, drawn towards the mixture's by four hits.
-        let w = f64::from(shown_density(a, b, [30, 10]));
+        let w = f64::from(alike([30, 10]));
         let h = (30.0 + SHOWN_PRIOR * 0.25) / (40.0 + SHOWN_PRIOR);
         assert!((w / (w + 3.0) - h).abs() < 1e-6, "{w}");
-        assert_eq!(shown_density(0.0, b, [5, 5]), 0.0);
-        assert_eq!(shown_density(a, 0.0, [5, 5]), a);
+        assert_eq!(shown_density(0.0, b, &[([5, 5], 1.0)]), 0.0);
+        assert_eq!(shown_density(a, 0.0, &[([5, 5], 1.0)]), a);
+    }
+
+    /// Where the renderer turns the parts unlike along the views, the shown wood makes the
+    /// wood it shows first, summed over the views, the mesh's: from the side (the wood's turn
+    /// twice the foliage's) the mesh shows wood in 30 of 40 hits, from above (half) in 2 of
+    /// 40. The fit's chances, each view's read as the renderer reads it and with the prior's 4
+    /// hits at the uniform share (1/4), sum to the mesh's 32 wood hits (and the prior's). A
+    /// cell seen only from the side, where the renderer doubles the wood's odds, shows about
+    /// half the wood the closed form for parts turned alike would give it.
+    #[test]
+    fn a_cells_shown_wood_sums_to_the_meshs_over_views_as_the_renderer_turns_them() {
+        let (a, b) = (1.0f64, 3.0f64);
+        let chance = |w: f64, r: f64| w * r / (w * r + b);
+        let seen = [([30, 10], 2.0), ([2, 38], 0.5)];
+        let w = f64::from(shown_density(a as f32, b as f32, &seen));
+        let summed = 40.0 * chance(w, 2.0) + 40.0 * chance(w, 0.5) + SHOWN_PRIOR * chance(w, 1.0);
+        let target = 32.0 + SHOWN_PRIOR * a / (a + b);
+        assert!((summed - target).abs() < 1e-6, "{summed} against {target}");
+
+        let side = f64::from(shown_density(a as f32, b as f32, &[([20, 20], 2.0)]));
+        let alike = f64::from(shown_density(a as f32, b as f32, &[([20, 20], 1.0)]));
+        let summed = 40.0 * chance(side, 2.0) + SHOWN_PRIOR * chance(side, 1.0);
+        assert!((summed - (20.0 + 1.0)).abs() < 1e-6, "{summed}");
+        assert!(
+            (0.45..0.6).contains(&(side / alike)),
+            "{side} against {alike}"
+        );
     }
 
     /// Wood inside a closed shell of leaves in one cell is never met first: the cell shows
