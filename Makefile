@@ -31,7 +31,7 @@ bench:
 	$(CARGO) bench --bench bake --bench place --bench render --bench million --bench bvh
 
 accuracy:
-	$(CARGO) run --release --example accuracy -- --anisotropy
+	$(CARGO) run --release --example accuracy -- --anisotropy --heights
 
 # Speed against error for every method and setting (report/; the reference renders are
 # cached in report/cache/). About 35 minutes on 2 cores the first time (stop 29: 33).

@@ -550,8 +550,8 @@ const SHOWN_STREAM: u64 = 1000;
 /// the renderer turns the parts unlike along the views (`volume::PartFacing`: flat leaves
 /// show less of themselves from the side than upright branches do), the hits are kept by view
 /// and `w` makes the chances the renderer gives each view, summed, the mesh's
-/// ([`shown_density`]): the pooled share, met in the mean of unturned chances, was met by no
-/// view the renderer draws.
+/// ([`shown_density`]): a share pooled over the views and met with the parts unturned is not
+/// what the renderer shows along any of them.
 ///
 /// Unlike a level's single weight fitted to what whole views of the lone tree see, the share is
 /// the cell's own: the same wherever the cell stands in a forest, whose neighbours hide the
@@ -588,11 +588,11 @@ pub fn wood_shown(
                 .collect()
         })
         .collect();
-    let mut hits: Vec<Vec<Vec<[u32; 2]>>> = slots
+    let mut hits: Vec<Vec<[u32; 2]>> = slots
         .iter()
         .map(|s| {
             let mixed = s.iter().filter(|&&k| k != u32::MAX).count();
-            vec![vec![[0; 2]; views.len()]; mixed]
+            vec![[0; 2]; mixed * views.len()]
         })
         .collect();
     for (k, &v) in views.iter().enumerate() {
@@ -609,7 +609,7 @@ pub fn wood_shown(
         for (n, cell, foliage) in firsts.into_iter().flatten() {
             let slot = slots[n as usize][cell as usize];
             if slot != u32::MAX {
-                hits[n as usize][slot as usize][k][usize::from(foliage)] += 1;
+                hits[n as usize][slot as usize * views.len() + k][usize::from(foliage)] += 1;
             }
         }
     }
@@ -617,7 +617,7 @@ pub fn wood_shown(
         .iter()
         .zip(slots.iter().zip(&hits))
         .map(|(level, (slots, hits))| {
-            // The renderer turns each part along each view alike in every cell of a level.
+            // The renderer turns each part along a view alike in every cell of a level.
             let facing = PartFacing::of(level);
             let ratios: Vec<f64> = views
                 .iter()
@@ -631,12 +631,9 @@ pub fn wood_shown(
                 .map(|i| match slots[i] {
                     u32::MAX => wood[i],
                     slot => {
-                        let seen: Vec<([u32; 2], f64)> = hits[slot as usize]
-                            .iter()
-                            .copied()
-                            .zip(ratios.iter().copied())
-                            .collect();
-                        shown_density(wood[i], foliage[i], &seen)
+                        let by_view = slot as usize * views.len();
+                        let hits = &hits[by_view..by_view + views.len()];
+                        shown_density(wood[i], foliage[i], hits, &ratios)
                     }
                 })
                 .collect()
@@ -645,7 +642,7 @@ pub fn wood_shown(
 }
 
 /// A cell's shown wood density from its densities and the mesh's first hits in it
-/// ([`wood_shown`]), given per view as the hits on wood and on foliage and the ratio of the
+/// ([`wood_shown`]), given per view: the hits on wood and on foliage, and the ratio of the
 /// wood's turn to the foliage's along that view ([`PartFacing::along`]).
 ///
 /// The renderer shows wood first in the cell, along a view whose ratio is `r`, with chance
@@ -654,23 +651,24 @@ pub fn wood_shown(
 /// (ratio 1), the mesh's wood hits plus the prior's: `sum_v n_v c_(r_v)(w) + P c_1(w) =
 /// h_wood + P a / (a + b)`. Where every ratio is 1 that is `c_1(w) = h`, solved in closed
 /// form.
-fn shown_density(wood: f32, foliage: f32, seen: &[([u32; 2], f64)]) -> f32 {
+fn shown_density(wood: f32, foliage: f32, hits: &[[u32; 2]], ratios: &[f64]) -> f32 {
     if wood <= 0.0 || foliage <= 0.0 {
         return wood;
     }
     let (a, b) = (f64::from(wood), f64::from(foliage));
     let uniform = a / (a + b);
-    let hw: u32 = seen.iter().map(|(h, _)| h[0]).sum();
+    let hw: u32 = hits.iter().map(|h| h[0]).sum();
     let target = f64::from(hw) + SHOWN_PRIOR * uniform;
-    let w = if seen.iter().all(|&(_, r)| r == 1.0) {
-        let hf: u32 = seen.iter().map(|(h, _)| h[1]).sum();
+    let w = if ratios.iter().all(|&r| r == 1.0) {
+        let hf: u32 = hits.iter().map(|h| h[1]).sum();
         let h = target / (f64::from(hw + hf) + SHOWN_PRIOR);
         (h * b / ((1.0 - h) * a)).clamp(WOOD_WEIGHT.0, WOOD_WEIGHT.1)
     } else {
         let chance = |w: f64, r: f64| w * a * r / (w * a * r + b);
         let shown = |w: f64| {
-            seen.iter()
-                .map(|&([hw, hf], r)| f64::from(hw + hf) * chance(w, r))
+            hits.iter()
+                .zip(ratios)
+                .map(|(&[hw, hf], &r)| f64::from(hw + hf) * chance(w, r))
                 .sum::<f64>()
                 + SHOWN_PRIOR * chance(w, 1.0)
         };
@@ -913,7 +911,7 @@ mod tests {
     #[test]
     fn a_cells_shown_wood_follows_its_first_hits() {
         let (a, b) = (1.0f32, 3.0f32);
-        let alike = |hits: [u32; 2]| shown_density(a, b, &[(hits, 1.0)]);
+        let alike = |hits: [u32; 2]| shown_density(a, b, &[hits], &[1.0]);
         assert!((alike([100, 300]) - a).abs() < 1e-6);
         assert_eq!(alike([0, 0]), a);
         let hidden = alike([1, 399]);
@@ -924,8 +922,8 @@ mod tests {
         let w = f64::from(alike([30, 10]));
         let h = (30.0 + SHOWN_PRIOR * 0.25) / (40.0 + SHOWN_PRIOR);
         assert!((w / (w + 3.0) - h).abs() < 1e-6, "{w}");
-        assert_eq!(shown_density(0.0, b, &[([5, 5], 1.0)]), 0.0);
-        assert_eq!(shown_density(a, 0.0, &[([5, 5], 1.0)]), a);
+        assert_eq!(shown_density(0.0, b, &[[5, 5]], &[1.0]), 0.0);
+        assert_eq!(shown_density(a, 0.0, &[[5, 5]], &[1.0]), a);
     }
 
     /// Where the renderer turns the parts unlike along the views, the shown wood makes the
@@ -939,14 +937,18 @@ mod tests {
     fn a_cells_shown_wood_sums_to_the_meshs_over_views_as_the_renderer_turns_them() {
         let (a, b) = (1.0f64, 3.0f64);
         let chance = |w: f64, r: f64| w * r / (w * r + b);
-        let seen = [([30, 10], 2.0), ([2, 38], 0.5)];
-        let w = f64::from(shown_density(a as f32, b as f32, &seen));
+        let w = f64::from(shown_density(
+            a as f32,
+            b as f32,
+            &[[30, 10], [2, 38]],
+            &[2.0, 0.5],
+        ));
         let summed = 40.0 * chance(w, 2.0) + 40.0 * chance(w, 0.5) + SHOWN_PRIOR * chance(w, 1.0);
         let target = 32.0 + SHOWN_PRIOR * a / (a + b);
         assert!((summed - target).abs() < 1e-6, "{summed} against {target}");
 
-        let side = f64::from(shown_density(a as f32, b as f32, &[([20, 20], 2.0)]));
-        let alike = f64::from(shown_density(a as f32, b as f32, &[([20, 20], 1.0)]));
+        let side = f64::from(shown_density(a as f32, b as f32, &[[20, 20]], &[2.0]));
+        let alike = f64::from(shown_density(a as f32, b as f32, &[[20, 20]], &[1.0]));
         let summed = 40.0 * chance(side, 2.0) + SHOWN_PRIOR * chance(side, 1.0);
         assert!((summed - (20.0 + 1.0)).abs() < 1e-6, "{summed}");
         assert!(
