@@ -1237,8 +1237,9 @@ impl Texel {
         let l = &self.levels[level];
         let mut w = Vec3::ZERO;
         w[axis] = 1.0;
+        let k = l.directional_factor(w);
         let turn = PartFacing::of(l).along(w);
-        self.columns(level, axis, turn.map(|t| l.directional_factor(w) * t))
+        self.columns(level, axis, turn.map(|t| k * t))
     }
 
     /// [`Texel::column_depths`] of the densities alone, both parts alike, without the
